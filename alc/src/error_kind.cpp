@@ -1,0 +1,17 @@
+#include "alc/error_kind.hpp"
+
+namespace alc {
+
+bool is_error_name(std::string_view name) { return name.size() > 2 && name.substr(0, 2) == "E_"; }
+
+ErrorKind error_kind(std::string_view name) {
+  if (is_error_name(name)) {
+    const char axis = name[2];
+    if (axis == 'A' || axis == 'B' || axis == 'C') return ErrorKind::Angular;
+  }
+  return ErrorKind::Linear;
+}
+
+std::string_view unit_of(ErrorKind kind) { return kind == ErrorKind::Angular ? "µm/m" : "µm"; }
+
+}  // namespace alc

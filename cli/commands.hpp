@@ -1,0 +1,14 @@
+#pragma once
+// Each command of the `alc` program registers itself on the top-level app.
+// A command's callback throws on error; main() prints the message to stderr and exits non-zero.
+#include <CLI/CLI.hpp>
+#include <stdexcept>
+
+namespace alc::cli {
+
+// An error in what the user asked for (exit code 2), as opposed to a failure while running (1).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace alc::cli

@@ -1,0 +1,28 @@
+// alc: adaptive learning control of thermal errors of a 5-axis machine's rotary axis.
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"alc: adaptive learning control of thermal errors of a 5-axis machine tool's rotary axis.\n"
+               "Predicts the thermal location errors of the C axis from temperatures and machine states "
+               "(ARX), schedules touch-probe measurements, and turns predictions into NC axis offsets."};
+  app.set_version_flag("--version", std::string("alc ") + ALC_VERSION);
+  app.require_subcommand(1);
+  // Commands register here, one line each.
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const alc::cli::UsageError& e) {
+    std::cerr << "alc: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "alc: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,23 @@
+#pragma once
+// A scenario: time series of model inputs and (sparse) measured thermal errors.
+// This is the in-memory form of the scenario CSV contract (DESIGN.md, "Data contracts").
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace alc::scenarios {
+
+struct Scenario {
+  std::vector<std::string> input_names;   // model inputs: temperatures [°C], speeds [rpm], 0/1 states
+  std::vector<std::string> output_names;  // measured errors, names start with "E_"
+  std::vector<double> time_s;             // sample times [s], strictly increasing
+  Eigen::MatrixXd inputs;                 // samples x inputs
+  Eigen::MatrixXd outputs;                // samples x outputs [µm] or [µm/m]; NaN where not measured
+
+  std::size_t samples() const { return time_s.size(); }
+  // Index of a named input or output column, or -1.
+  int input_index(const std::string& name) const;
+  int output_index(const std::string& name) const;
+};
+
+}  // namespace alc::scenarios

@@ -1,0 +1,246 @@
+#include "scenarios/scenario_csv.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <istream>
+#include <limits>
+#include <ostream>
+#include <sstream>
+#include <system_error>
+#include <unordered_set>
+
+#include "alc/error_kind.hpp"
+
+namespace alc::scenarios {
+
+namespace {
+
+std::string location_prefix(const std::string& file, std::size_t line, std::size_t column) {
+  std::string s = file;
+  if (line > 0) s.append(":").append(std::to_string(line));
+  if (column > 0) s.append(":").append(std::to_string(column));
+  return s;
+}
+
+std::string shorten(const std::string& text, std::size_t max = 60) {
+  return text.size() <= max ? text : text.substr(0, max) + "…";
+}
+
+std::string compose(const std::string& file, std::size_t line, std::size_t column,
+                    const std::string& column_name, const std::string& value, const std::string& reason) {
+  std::string s = location_prefix(file, line, column) + ": " + reason;
+  if (!column_name.empty()) s += " (column '" + column_name + "')";
+  if (!value.empty() || column > 0) s += ": value '" + shorten(value) + "'";
+  return s;
+}
+
+std::string trim(std::string_view s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t')) --e;
+  return std::string(s.substr(b, e - b));
+}
+
+std::vector<std::string> split_cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    cells.push_back(trim(std::string_view(line).substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return cells;
+}
+
+std::string unquote(const std::string& s) {
+  if (s.size() >= 2 && s.front() == '"' && s.back() == '"') return s.substr(1, s.size() - 2);
+  return s;
+}
+
+// Parses a complete cell as a finite double; returns an empty string on success, else the reason.
+std::string parse_double(const std::string& cell, double& out) {
+  const char* begin = cell.data();
+  const char* end = cell.data() + cell.size();
+  if (begin != end && *begin == '+') ++begin;  // from_chars rejects a leading '+'
+  const auto [ptr, ec] = std::from_chars(begin, end, out);
+  if (ec == std::errc::result_out_of_range) return "number out of range";
+  if (ec != std::errc() || ptr != end || begin == end) return "not a number";
+  if (!std::isfinite(out)) return "not a finite number";
+  return {};
+}
+
+}  // namespace
+
+ScenarioCsvError::ScenarioCsvError(std::string file_, std::size_t line_, std::size_t column_,
+                                   std::string column_name_, std::string value_, const std::string& what)
+    : std::runtime_error(compose(file_, line_, column_, column_name_, value_, what)),
+      file(std::move(file_)), line(line_), column(column_), column_name(std::move(column_name_)),
+      value(std::move(value_)), reason(what) {}
+
+int Scenario::input_index(const std::string& name) const {
+  for (std::size_t i = 0; i < input_names.size(); ++i)
+    if (input_names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+int Scenario::output_index(const std::string& name) const {
+  for (std::size_t i = 0; i < output_names.size(); ++i)
+    if (output_names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
+  std::string line;
+  std::size_t line_no = 0;
+  auto next_line = [&]() -> bool {
+    if (!std::getline(in, line)) return false;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line_no == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // UTF-8 BOM
+    return true;
+  };
+
+  // Header: the first non-blank line.
+  bool have_header = false;
+  while (next_line()) {
+    if (!trim(line).empty()) { have_header = true; break; }
+  }
+  if (!have_header) throw ScenarioCsvError(source, 0, 0, "", "", "the file is empty (no header line)");
+
+  std::vector<std::string> header = split_cells(line);
+  const std::size_t header_line = line_no;
+  enum class Role { Time, Input, Output };
+  std::vector<Role> roles(header.size());
+  std::vector<int> slot(header.size(), -1);
+  Scenario s;
+  int time_col = -1;
+  std::unordered_set<std::string> seen;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    header[c] = unquote(header[c]);
+    const std::string& name = header[c];
+    if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", name, "empty column name in header");
+    if (!seen.insert(name).second)
+      throw ScenarioCsvError(source, header_line, c + 1, name, name, "duplicate column name in header");
+    if (name == "time_s") {
+      roles[c] = Role::Time;
+      time_col = static_cast<int>(c);
+    } else if (alc::is_error_name(name)) {
+      roles[c] = Role::Output;
+      slot[c] = static_cast<int>(s.output_names.size());
+      s.output_names.push_back(name);
+    } else {
+      roles[c] = Role::Input;
+      slot[c] = static_cast<int>(s.input_names.size());
+      s.input_names.push_back(name);
+    }
+  }
+  if (time_col < 0)
+    throw ScenarioCsvError(source, header_line, 0, "", shorten(line), "missing required column 'time_s' in header");
+  if (s.output_names.empty())
+    throw ScenarioCsvError(source, header_line, 0, "", shorten(line),
+                           "no measured-error column (a name starting with 'E_') in header");
+  if (s.input_names.empty())
+    throw ScenarioCsvError(source, header_line, 0, "", shorten(line),
+                           "no input column (any column other than time_s and E_…) in header");
+
+  std::vector<double> inputs, outputs;  // row-major while reading
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::string> cells;
+  while (next_line()) {
+    if (trim(line).empty()) continue;
+    cells = split_cells(line);
+    if (cells.size() != header.size())
+      throw ScenarioCsvError(source, line_no, 0, "", shorten(line),
+                             "wrong number of cells: " + std::to_string(cells.size()) + " where the header has " +
+                                 std::to_string(header.size()));
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      const std::string& cell = cells[c];
+      if (cell.empty()) {
+        if (roles[c] == Role::Output) {
+          outputs.push_back(nan);
+          continue;
+        }
+        throw ScenarioCsvError(source, line_no, c + 1, header[c], cell,
+                               "empty cell: only measured-error (E_) columns may be empty");
+      }
+      double v = 0.0;
+      if (const std::string why = parse_double(cell, v); !why.empty())
+        throw ScenarioCsvError(source, line_no, c + 1, header[c], cell, why);
+      switch (roles[c]) {
+        case Role::Time:
+          if (!s.time_s.empty() && !(v > s.time_s.back()))
+            throw ScenarioCsvError(source, line_no, c + 1, header[c], cell,
+                                   "time_s is not strictly increasing (previous row has " +
+                                       format_number(s.time_s.back()) + ")");
+          s.time_s.push_back(v);
+          break;
+        case Role::Input: inputs.push_back(v); break;
+        case Role::Output: outputs.push_back(v); break;
+      }
+    }
+  }
+  if (in.bad()) throw ScenarioCsvError(source, line_no, 0, "", "", "read error");
+  if (s.time_s.empty()) throw ScenarioCsvError(source, header_line, 0, "", "", "no data rows after the header");
+
+  const auto n = static_cast<Eigen::Index>(s.time_s.size());
+  const auto ni = static_cast<Eigen::Index>(s.input_names.size());
+  const auto no = static_cast<Eigen::Index>(s.output_names.size());
+  s.inputs = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(inputs.data(), n, ni);
+  s.outputs = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(outputs.data(), n, no);
+  return s;
+}
+
+Scenario read_scenario_csv(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ScenarioCsvError(path.string(), 0, 0, "", "", "cannot open file for reading");
+  return parse_scenario_csv(in, path.string());
+}
+
+std::string format_number(double value) {
+  if (value == 0.0) return "0";  // also turns -0 into 0
+  char buf[64];
+  const auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, value);
+  return std::string(buf, ptr);
+}
+
+void write_scenario_csv(std::ostream& out, const Scenario& s) {
+  const auto n = static_cast<Eigen::Index>(s.time_s.size());
+  if (s.inputs.rows() != n || s.outputs.rows() != n ||
+      s.inputs.cols() != static_cast<Eigen::Index>(s.input_names.size()) ||
+      s.outputs.cols() != static_cast<Eigen::Index>(s.output_names.size()))
+    throw std::invalid_argument("write_scenario_csv: matrix sizes do not match the names and time_s");
+  std::string row = "time_s";
+  for (const auto& name : s.input_names) row.append(",").append(name);
+  for (const auto& name : s.output_names) row.append(",").append(name);
+  out << row << '\n';
+  for (Eigen::Index r = 0; r < n; ++r) {
+    row = format_number(s.time_s[static_cast<std::size_t>(r)]);
+    for (Eigen::Index c = 0; c < s.inputs.cols(); ++c) row.append(",").append(format_number(s.inputs(r, c)));
+    for (Eigen::Index c = 0; c < s.outputs.cols(); ++c) {
+      row += ',';
+      if (!std::isnan(s.outputs(r, c))) row += format_number(s.outputs(r, c));
+    }
+    out << row << '\n';
+  }
+}
+
+void write_scenario_csv(const std::filesystem::path& path, const Scenario& s) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(tmp.string() + ": cannot open file for writing");
+    write_scenario_csv(out, s);
+    out.flush();
+    if (!out) throw std::runtime_error(tmp.string() + ": write failed (disk full?)");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp);
+    throw std::runtime_error(path.string() + ": cannot rename temporary file into place: " + ec.message());
+  }
+}
+
+}  // namespace alc::scenarios

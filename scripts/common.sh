@@ -1,0 +1,41 @@
+# Shared by scripts/main.sh and scripts/test.sh: install Debian packages if missing, configure, build.
+# Idempotent and quiet: a second run installs nothing and rebuilds only what changed.
+set -euo pipefail
+
+ALC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+ALC_JOBS="${ALC_JOBS:-$(nproc)}"
+
+# Build dependencies, all from Debian 12.
+ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsqlite3-dev sqlite3 libspdlog-dev
+              catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev)
+
+# ensure_packages PKG...: apt-get install the ones that are not installed yet.
+ensure_packages() {
+  local missing=()
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  echo "installing: ${missing[*]}"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
+
+# build DIR [CMAKE_ARGS...]: configure once, then build everything in DIR.
+build() {
+  local dir="$1"; shift
+  if [ ! -f "$dir/build.ninja" ]; then
+    cmake -S "$ALC_ROOT" -B "$dir" -G Ninja "$@" >/dev/null
+  fi
+  if ! cmake --build "$dir" -j "$ALC_JOBS" >"$dir/build.log" 2>&1; then
+    cat "$dir/build.log" >&2
+    echo "build failed in $dir" >&2
+    return 1
+  fi
+  grep -A3 "warning:" "$dir/build.log" >&2 || true  # warnings stay visible
+}

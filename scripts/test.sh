@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# The whole test suite: a release build and an ASan+UBSan build, each run through CTest.
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+ensure_packages "${ALC_PACKAGES[@]}"
+status=0
+build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release
+ctest --test-dir "$ALC_ROOT/build/test-release" -j "$ALC_JOBS" --output-on-failure || status=1
+build "$ALC_ROOT/build/test-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DALC_SANITIZE=ON
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir "$ALC_ROOT/build/test-asan" -j "$ALC_JOBS" --output-on-failure || status=1
+exit $status
