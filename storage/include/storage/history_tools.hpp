@@ -1,0 +1,48 @@
+#pragma once
+// What `alc db check|export|bench` do, as functions.
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace alc::storage {
+
+struct CheckReport {
+  std::vector<std::string> problems;   // one line each; empty = the database is sound
+  bool ok() const { return problems.empty(); }
+};
+
+// PRAGMA integrity_check, foreign_key_check, then the project's checks: every run has a JSON
+// configuration and channel names; times strictly increase per run for input samples and never
+// decrease for the other tables; vector lengths match the run's channels; JSON snapshots parse.
+// Throws StorageError only if the file cannot be opened as an ALC history at all.
+CheckReport check_history(const std::filesystem::path& path);
+
+// Tables `alc db export` accepts (the fixed list; nothing else reaches SQL).
+const std::vector<std::string>& exportable_tables();
+
+// Writes `table` as CSV (RFC 4180 quoting, header line, shortest round-trip numbers, empty cell
+// for NaN/NULL, "inf" for infinity). Vectors are spread into one column per channel name,
+// e.g. input_samples: run_id,sample_index,time_s,<input names...>. Throws StorageError
+// (InvalidArgument) for a table not in exportable_tables().
+void export_table_csv(const std::filesystem::path& path, std::string_view table, std::ostream& out);
+
+struct BenchOptions {
+  std::int64_t samples = 20000;          // input samples written per mode
+  int inputs = 16;                       // values per sample
+  std::size_t batch_size = 1000;         // records per transaction in the batched mode
+};
+
+struct BenchResult {
+  std::int64_t records = 0;              // records per mode (samples + predictions)
+  double batched_records_per_s = 0.0;    // [1/s]
+  double unbatched_records_per_s = 0.0;  // [1/s] one transaction per record
+  double ratio() const { return unbatched_records_per_s > 0 ? batched_records_per_s / unbatched_records_per_s : 0.0; }
+};
+
+// Writes the same synthetic run twice into fresh files in `directory` (removed afterwards).
+BenchResult bench_history(const std::filesystem::path& directory, const BenchOptions& options);
+
+}  // namespace alc::storage

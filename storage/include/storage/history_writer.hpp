@@ -1,0 +1,95 @@
+#pragma once
+// Appends records to a history database in batched transactions.
+//
+// Use from a replay or supervisor loop:
+//   HistoryWriter writer(path, {});                // opens or creates; migrates; validates
+//   RunId run = writer.begin_run(run_record);      // committed at once
+//   writer.add(sample); writer.add(prediction); …  // buffered in the open transaction
+//   writer.commit();                               // before acting on what was accepted
+//   writer.save_snapshot(snapshot);                // stored and committed at once
+//   writer.end_run(run, RunStatus::Finished);      // committed at once
+// Records are committed every `batch_size` records, on commit(), save_snapshot(), end_run() and
+// on destruction. A process killed between commits loses only the uncommitted batch; the file
+// stays consistent (WAL journal).
+//
+// Resume: `ResumePoint p = writer.resume_run(run)` returns the latest snapshot and deletes every
+// record of the run written after it (time_s > snapshot.time_s, sample_index >= next_sample_index),
+// so the continued run rewrites them exactly once.
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+
+#include "storage/records.hpp"
+
+namespace alc::storage {
+
+// Durability of a commit. Process: survives a crashed or killed process (WAL, synchronous=NORMAL).
+// Power: also survives power loss (synchronous=FULL, an fsync per commit) — for a real machine.
+enum class Durability { Process, Power };
+
+struct WriterOptions {
+  std::size_t batch_size = 1000;        // records per transaction; 1 = a transaction per record
+  int busy_timeout_ms = 5000;           // [ms] wait for another writer's lock before failing
+  Durability durability = Durability::Process;
+  bool create_directories = false;      // create missing parent directories of the file
+  std::int64_t max_page_count = 0;      // cap on the file size in pages (0 = none); SQLITE_FULL above
+
+  // Empty if valid, else which field is wrong and its value.
+  std::string validate() const;
+};
+
+struct ResumePoint {
+  RunRecord run;                        // the run being resumed (status back to Running)
+  ControllerSnapshot snapshot;          // restore the controller from this
+};
+
+class HistoryWriter {
+ public:
+  // Opens `path`, creating an empty ALC database if the file does not exist (or is empty).
+  // Refuses, with StorageError naming the file and cause, and without modifying the file: a file
+  // that is not SQLite, an SQLite file of another program, a newer schema, a truncated file.
+  // An older ALC schema is migrated forward in one transaction.
+  explicit HistoryWriter(const std::filesystem::path& path, WriterOptions options = {});
+  ~HistoryWriter();  // commits what is pending; errors are swallowed (call close() to see them)
+  HistoryWriter(HistoryWriter&&) noexcept;
+  HistoryWriter& operator=(HistoryWriter&&) noexcept;
+  HistoryWriter(const HistoryWriter&) = delete;
+  HistoryWriter& operator=(const HistoryWriter&) = delete;
+
+  // Inserts the run with its channel names and commits. Returns the new run_id.
+  RunId begin_run(const RunRecord& run);
+  // Sets end time (now) and status, commits.
+  void end_run(RunId run, RunStatus status);
+
+  // Buffered in the current transaction; vectors must match the run's channel counts.
+  void add(const InputSampleRecord& record);
+  void add(const ProbeMeasurementRecord& record);
+  void add(const PredictionRecord& record);
+  void add(const ModelParameterSetRecord& record);
+  void add(const PhaseChangeRecord& record);
+  void add(const ProbeIntervalChangeRecord& record);
+  void add(const NcCommandRecord& record);
+
+  // Stores the snapshot and commits everything pending with it.
+  void save_snapshot(const ControllerSnapshot& snapshot);
+
+  // Commits the open transaction (no-op when nothing is pending).
+  void commit();
+
+  // See the file comment. Throws StorageError(NotFound) if the run or its snapshot is missing.
+  ResumePoint resume_run(RunId run);
+
+  // Commits and closes; further calls throw. Safe to call twice.
+  void close();
+
+  const std::filesystem::path& path() const;
+  std::size_t pending() const;                 // records added since the last commit
+  std::uint64_t transactions_committed() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace alc::storage

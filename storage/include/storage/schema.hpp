@@ -1,0 +1,18 @@
+#pragma once
+// Schema identity and the default location of the history database (docs/storage.md).
+#include <cstdint>
+#include <filesystem>
+
+namespace alc::storage {
+
+// PRAGMA application_id of every ALC history database: "ALCH" in ASCII.
+inline constexpr std::int32_t kApplicationId = 0x414C4348;
+// PRAGMA user_version written by this build. Older versions are migrated forward on open by a
+// writer; newer ones are refused.
+inline constexpr int kSchemaVersion = 2;
+
+// $XDG_DATA_HOME/alc/history.sqlite, else $HOME/.local/share/alc/history.sqlite, else
+// ./alc-history.sqlite (no HOME: a service account or a container).
+std::filesystem::path default_history_path();
+
+}  // namespace alc::storage
