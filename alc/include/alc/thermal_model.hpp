@@ -9,6 +9,13 @@
 // - identify() fits a model from the input history and the probe measurements. It never throws
 //   for bad data: it returns FitResult with usable == false and a reason, and the caller keeps the
 //   previous model.
+//
+// The model of one output (docs/identification.md) is a bank of first-order lags per input,
+//   x_{i,k}(t) = lag with time constant tau_k of (u_i(t) - input_reference_i), unit static gain,
+//   y(t)       = b0 + sum_i sum_k theta_{i,k} * x_{i,k}(t),
+// i.e. the partial-fraction form of an ARX/OE model with real poles a_k = exp(-base_step_s/tau_k):
+// each lag is x[n+1] = a_k x[n] + (1 - a_k) u[n]. The lags are discretised exactly for any sample
+// spacing (zero-order hold of the previous sample), so inputs at 15 s, 60 s or with gaps all work.
 #include <Eigen/Core>
 #include <limits>
 #include <optional>
@@ -36,10 +43,19 @@ struct InputHistory {
 
 enum class RobustLoss { None, Huber, Cauchy };
 enum class StructureCriterion { BIC, AIC, HoldOut };
+// FixedPoles: route (a), poles from a grid of time constants, gains by weighted least squares
+//   (QR), structure by the criterion, then a robust (Ceres) refinement of the gains.
+// OutputError: route (b), starts from FixedPoles and refines gains and time constants together on
+//   the simulated output at the probe times (Ceres, robust loss).
+enum class IdentificationMethod { FixedPoles, OutputError };
 
 struct IdentificationOptions {
-  double base_step_s = 60.0;                 // [s] uniform step the ARX model runs on
+  IdentificationMethod method = IdentificationMethod::FixedPoles;
+  double base_step_s = 60.0;                 // [s] step at which `poles` are expressed
   int max_order = 3;                         // highest ARX order (number of poles per input) tried
+  double tau_min_s = 600.0;                  // [s] shortest time constant of the pole grid
+  double tau_max_s = 72000.0;                // [s] longest time constant of the pole grid
+  int pole_grid_size = 6;                    // [-] log-spaced time constants tau_min_s..tau_max_s
   StructureCriterion criterion = StructureCriterion::BIC;
   bool select_inputs = true;                 // drop inputs that do not help (p-values / Lasso)
   int max_inputs = 8;                        // upper bound of inputs kept after selection
@@ -50,6 +66,9 @@ struct IdentificationOptions {
   double window_start_s = -kInf;             // [s] use data since this time only
   double forgetting_half_life_s = kInf;      // [s] weight halves per this age; inf = no forgetting
   int min_measurements = 6;                  // fewer probes -> not usable
+  double output_limit_factor = 4.0;          // [-] predictions are bounded by this times the largest
+                                             //     measured |error| (at least 20 robust scales)
+  int max_iterations = 50;                   // [-] Ceres iterations of the robust / output-error fit
 
   // Empty if valid, else which constraint is violated, naming the field and value.
   std::string validate() const;
@@ -60,8 +79,11 @@ struct OutputModel {
   std::string name;                          // "E_X0C"
   int order = 0;                             // chosen order
   std::vector<int> inputs;                   // indices into ThermalModel::input_names used
-  Eigen::VectorXd parameters;                // meaning fixed by the implementation (documented there)
-  Eigen::VectorXd poles;                     // discrete poles / time constants used, if any
+  // [b0, theta_{i1,1..K}, theta_{i2,1..K}, ...]: offset [µm] then the gain of each lag, input-major,
+  // pole-minor, in [µm] (or [µm/m]) per input unit (°C, rpm, 0/1). Static gain of input i: sum_k.
+  Eigen::VectorXd parameters;
+  Eigen::VectorXd poles;                     // [-] discrete poles a_k = exp(-base_step_s / tau_k), size order
+  double output_limit = kInf;                // [µm] or [µm/m] predictions are clamped to +-this
 };
 
 struct ThermalModel {
@@ -84,6 +106,8 @@ struct OutputFitSummary {
   double condition = 0.0;                    // condition number of the (weighted) regressor
   double cost_before = 0.0;                  // robust refinement cost before/after
   double cost_after = 0.0;
+  std::vector<double> time_constants_s;      // [s] of the chosen poles
+  Eigen::VectorXd parameter_std;             // standard errors of `parameters` (weighted LS, same units)
 };
 
 struct FitResult {
@@ -91,7 +115,14 @@ struct FitResult {
   std::string message;                       // summary; reason when not usable
   ThermalModel model;                        // valid only when usable
   std::vector<OutputFitSummary> outputs;
+  // State of a ModelPredictor(model) that has been stepped over the whole history (set_state() it
+  // to continue from the last sample without replaying); empty when not usable.
+  Eigen::VectorXd predictor_state;
 };
+
+// Time constant [s] of a discrete pole at `base_step_s` and back.
+double time_constant_of_pole(double pole, double base_step_s);
+double pole_of_time_constant(double tau_s, double base_step_s);
 
 FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
                    const std::vector<ProbeRecord>& probes, const IdentificationOptions& options);
@@ -101,17 +132,24 @@ class ModelPredictor {
  public:
   ModelPredictor() = default;
   explicit ModelPredictor(ThermalModel model);
-  // Returns the predicted errors after this sample (size = number of outputs).
+  // Returns the predicted errors after this sample (size = number of outputs). The first sample
+  // starts every lag in steady state; later samples advance the lags over the elapsed time with the
+  // previous sample held. A non-finite input keeps its previous value (the reference at the first
+  // sample); a time not after the previous one only replaces the held input.
   Eigen::VectorXd step(double time_s, const Eigen::VectorXd& inputs);
   const ThermalModel& model() const { return model_; }
-  // Exact state for save/restore.
+  // Exact state for save/restore; set_state() throws std::invalid_argument on a size mismatch.
   Eigen::VectorXd state() const;
   void set_state(const Eigen::VectorXd& state);
 
  private:
+  Eigen::VectorXd output() const;
+
   ThermalModel model_;
+  // Layout: [started 0/1, last time [s], held inputs (n_inputs), lag states per output, per used
+  // input, per pole]. Everything the predictor needs to continue; the rest is derived from model_.
   Eigen::VectorXd state_;
-  double last_time_s_ = -kInf;
+  std::vector<std::vector<double>> tau_s_;   // [s] per output, per pole (derived from model_)
 };
 
 }  // namespace alc

@@ -1,0 +1,432 @@
+// identify(): structure selection and weighted least squares of the fixed-pole ARX form (route a),
+// optional output-error refinement (route b), robust refinement, bounds and the fit summary.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+#include "alc/error_kind.hpp"
+#include "alc/thermal_model.hpp"
+#include "lag_filter.hpp"
+#include "least_squares.hpp"
+#include "refinement.hpp"
+
+namespace alc {
+namespace {
+
+using Index = Eigen::Index;
+
+std::string format_number(double v) {
+  std::ostringstream os;
+  os.precision(4);
+  os << v;
+  return os.str();
+}
+
+// Lag of one input column with time constant tau, sampled after stepping to each of `samples`
+// (ascending history rows). Same arithmetic as ModelPredictor::step.
+Eigen::VectorXd lag_at_samples(const InputHistory& h, Index col, double ref, double tau,
+                               const std::vector<Index>& samples) {
+  Eigen::VectorXd out(static_cast<Index>(samples.size()));
+  const auto n = static_cast<Index>(h.time_s.size());
+  const double u0 = h.inputs(0, col);
+  double held = std::isfinite(u0) ? u0 : ref;
+  double x = held - ref;
+  double last_t = h.time_s[0];
+  double last_dt = -1.0;
+  double a = 0.0;
+  std::size_t next = 0;
+  for (Index s = 0; s < n && next < samples.size(); ++s) {
+    if (s > 0) {
+      const double dt = h.time_s[static_cast<std::size_t>(s)] - last_t;
+      if (dt > 0.0) {
+        if (dt != last_dt) {
+          a = detail::lag_factor(dt, tau);
+          last_dt = dt;
+        }
+        x = detail::lag_step(x, a, held - ref);
+        last_t = h.time_s[static_cast<std::size_t>(s)];
+      }
+      const double u = h.inputs(s, col);
+      if (std::isfinite(u)) held = u;
+    }
+    while (next < samples.size() && samples[next] == s) out(static_cast<Index>(next++)) = x;
+  }
+  return out;
+}
+
+// Chosen structure of one output: history input columns and indices into the pole grid.
+struct Structure {
+  std::vector<int> inputs;
+  std::vector<int> poles;
+  Index parameters() const { return 1 + static_cast<Index>(inputs.size() * poles.size()); }
+};
+
+// The measurements of one output and the lags of every candidate input at their samples.
+class OutputData {
+ public:
+  OutputData(const std::vector<std::vector<Eigen::VectorXd>>& lags, std::vector<Index> pos, Eigen::VectorXd y,
+             Eigen::VectorXd w, const IdentificationOptions& options)
+      : lags_(lags), pos_(std::move(pos)), y_(std::move(y)), w_(std::move(w)), options_(options) {
+    const double ms = (w_.array() * y_.array().square()).sum() / w_.sum();
+    floor_ = 1e-12 * ms + 1e-300;  // relative RMS 1e-6: below this every fit counts as exact
+  }
+
+  Index rows() const { return y_.size(); }
+  const Eigen::VectorXd& y() const { return y_; }
+  const Eigen::VectorXd& w() const { return w_; }
+
+  Eigen::MatrixXd design(const Structure& s) const {
+    Eigen::MatrixXd phi(rows(), s.parameters());
+    phi.col(0).setOnes();
+    Index c = 1;
+    for (const int i : s.inputs) {
+      for (const int g : s.poles) {
+        const Eigen::VectorXd& lag = lags_[static_cast<std::size_t>(i)][static_cast<std::size_t>(g)];
+        for (Index r = 0; r < rows(); ++r) phi(r, c) = lag(pos_[static_cast<std::size_t>(r)]);
+        ++c;
+      }
+    }
+    return phi;
+  }
+
+  // Lower is better. BIC/AIC on the weighted residual variance; hold-out on every 4th measurement.
+  double criterion(const Structure& s) const {
+    const Eigen::MatrixXd phi = design(s);
+    const auto m = static_cast<double>(rows());
+    const auto p = static_cast<double>(s.parameters());
+    if (options_.criterion == StructureCriterion::HoldOut && rows() >= 8) {
+      Eigen::VectorXd w_fit = w_;
+      Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
+      for (Index r = 3; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
+      const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, options_.ridge, 1);
+      if (!fit.ok || !(w_val.sum() > 0.0)) return kInf;
+      const Eigen::VectorXd r = y_ - phi * fit.theta;
+      const double sse = (w_val.array() * r.array().square()).sum() / w_val.sum();
+      return std::log(sse + floor_) + 0.01 * p;  // 1 % per parameter breaks ties towards the simpler
+    }
+    const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_, options_.ridge, 1);
+    if (!fit.ok) return kInf;
+    const double penalty = options_.criterion == StructureCriterion::AIC ? 2.0 : std::log(m);
+    return m * std::log(fit.weighted_rss / fit.weight_sum + floor_) + penalty * p;
+  }
+
+ private:
+  const std::vector<std::vector<Eigen::VectorXd>>& lags_;  // [input][grid pole] at the probe samples
+  std::vector<Index> pos_;                                   // probe sample position of each row
+  Eigen::VectorXd y_;
+  Eigen::VectorXd w_;
+  const IdentificationOptions& options_;
+  double floor_ = 0.0;
+};
+
+// Forward selection of inputs (each brings one lag per pole) while the criterion improves.
+std::vector<int> select_inputs(const OutputData& d, const std::vector<int>& candidates, const std::vector<int>& poles,
+                               const IdentificationOptions& o) {
+  Structure s{{}, poles};
+  double best = d.criterion(s);
+  while (static_cast<int>(s.inputs.size()) < o.max_inputs) {
+    int best_input = -1;
+    double best_new = best;
+    for (const int c : candidates) {
+      if (std::find(s.inputs.begin(), s.inputs.end(), c) != s.inputs.end()) continue;
+      Structure t = s;
+      t.inputs.push_back(c);
+      if (t.parameters() > d.rows() - 2) continue;
+      const double v = d.criterion(t);
+      if (v < best_new) {
+        best_new = v;
+        best_input = c;
+      }
+    }
+    if (best_input < 0) break;
+    s.inputs.push_back(best_input);
+    best = best_new;
+  }
+  std::sort(s.inputs.begin(), s.inputs.end());
+  return s.inputs;
+}
+
+// Every subset of the pole grid of size 1..max_order; the best criterion wins, the lower order on a tie.
+std::vector<int> select_poles(const OutputData& d, const std::vector<int>& inputs, int grid_size,
+                              const IdentificationOptions& o) {
+  std::vector<int> best_poles{grid_size / 2};
+  double best = kInf;
+  for (int k = 1; k <= o.max_order; ++k) {
+    if (1 + static_cast<Index>(inputs.size()) * k > std::max<Index>(d.rows() - 2, 2)) break;
+    std::vector<int> subset(static_cast<std::size_t>(k));
+    std::iota(subset.begin(), subset.end(), 0);
+    while (true) {
+      const double v = d.criterion(Structure{inputs, subset});
+      if (v < best) {
+        best = v;
+        best_poles = subset;
+      }
+      // next combination in lexicographic order
+      int i = k - 1;
+      while (i >= 0 && subset[static_cast<std::size_t>(i)] == grid_size - k + i) --i;
+      if (i < 0) break;
+      ++subset[static_cast<std::size_t>(i)];
+      for (int j = i + 1; j < k; ++j) subset[static_cast<std::size_t>(j)] = subset[static_cast<std::size_t>(j - 1)] + 1;
+    }
+  }
+  return best_poles;
+}
+
+struct OutputFit {
+  OutputModel model;
+  OutputFitSummary summary;
+};
+
+}  // namespace
+
+FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
+                   const std::vector<ProbeRecord>& probes, const IdentificationOptions& options) {
+  FitResult result;
+  const auto fail = [&result](std::string why) {
+    result.usable = false;
+    result.message = std::move(why);
+    return result;
+  };
+  if (std::string why = options.validate(); !why.empty()) return fail(why);
+  const auto n_samples = static_cast<Index>(history.time_s.size());
+  const auto n_in = static_cast<Index>(history.input_names.size());
+  if (n_samples == 0) return fail("empty input history");
+  if (history.inputs.rows() != n_samples || history.inputs.cols() != n_in)
+    return fail("input history is " + std::to_string(history.inputs.rows()) + " x " + std::to_string(history.inputs.cols()) +
+                ", expected " + std::to_string(n_samples) + " samples x " + std::to_string(n_in) + " inputs");
+  if (output_names.empty()) return fail("no output to identify");
+  const auto n_out = static_cast<Index>(output_names.size());
+
+  // Reference: the first sample, so that every lag starts at zero.
+  Eigen::VectorXd reference(n_in);
+  for (Index i = 0; i < n_in; ++i) reference(i) = std::isfinite(history.inputs(0, i)) ? history.inputs(0, i) : 0.0;
+
+  // Measurements inside the window, in time order, with their history sample.
+  std::vector<const ProbeRecord*> used;
+  for (const ProbeRecord& p : probes) {
+    if (p.time_s >= options.window_start_s && p.time_s >= history.time_s.front() && p.errors.size() == n_out &&
+        std::isfinite(p.time_s) && p.weight > 0.0 && std::isfinite(p.weight))
+      used.push_back(&p);
+  }
+  std::stable_sort(used.begin(), used.end(), [](const ProbeRecord* a, const ProbeRecord* b) { return a->time_s < b->time_s; });
+  std::vector<Index> sample_of(used.size());
+  for (std::size_t j = 0; j < used.size(); ++j) {
+    const auto it = std::upper_bound(history.time_s.begin(), history.time_s.end(), used[j]->time_s);
+    sample_of[j] = static_cast<Index>(it - history.time_s.begin()) - 1;
+  }
+  std::vector<Index> samples = sample_of;
+  samples.erase(std::unique(samples.begin(), samples.end()), samples.end());
+  const Index last_sample = samples.empty() ? 0 : samples.back();
+
+  // Inputs that vary before the last measurement are candidates; the others cannot explain anything.
+  std::vector<int> candidates;
+  std::vector<std::string> constant;
+  for (Index i = 0; i < n_in; ++i) {
+    const auto col = history.inputs.col(i).head(last_sample + 1);
+    double lo = kInf;
+    double hi = -kInf;
+    for (Index s = 0; s < col.size(); ++s) {
+      if (!std::isfinite(col(s))) continue;
+      lo = std::min(lo, col(s));
+      hi = std::max(hi, col(s));
+    }
+    if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi)))
+      candidates.push_back(static_cast<int>(i));
+    else
+      constant.push_back(history.input_names[static_cast<std::size_t>(i)]);
+  }
+
+  // Lags of every candidate input for every grid time constant, once, at the measurement samples.
+  const int grid_size = options.pole_grid_size;
+  std::vector<double> grid(static_cast<std::size_t>(grid_size));
+  for (int g = 0; g < grid_size; ++g)
+    grid[static_cast<std::size_t>(g)] =
+        grid_size == 1 ? options.tau_min_s
+                       : options.tau_min_s * std::pow(options.tau_max_s / options.tau_min_s, double(g) / (grid_size - 1));
+  std::vector<std::vector<Eigen::VectorXd>> lags(static_cast<std::size_t>(n_in));
+  if (!samples.empty()) {
+    for (const int i : candidates)
+      for (const double tau : grid) lags[static_cast<std::size_t>(i)].push_back(lag_at_samples(history, i, reference(i), tau, samples));
+  }
+
+  ThermalModel model;
+  model.input_names = history.input_names;
+  model.input_reference = reference;
+  model.base_step_s = options.base_step_s;
+  result.usable = true;
+  std::string messages;
+
+  for (Index o = 0; o < n_out; ++o) {
+    const std::string& name = output_names[static_cast<std::size_t>(o)];
+    OutputFitSummary sum;
+    sum.name = name;
+    OutputModel om;
+    om.name = name;
+    om.parameters = Eigen::VectorXd::Zero(1);
+    const double scale = error_kind(name) == ErrorKind::Angular ? options.robust_scale_ang : options.robust_scale_lin;
+    const std::string unit(unit_of(error_kind(name)));
+
+    // Rows of this output.
+    std::vector<Index> pos;
+    std::vector<Index> row_sample;
+    std::vector<double> ys;
+    std::vector<double> ts;
+    std::vector<double> ws;
+    for (std::size_t j = 0; j < used.size(); ++j) {
+      const double y = used[j]->errors(o);
+      if (!std::isfinite(y)) continue;
+      pos.push_back(static_cast<Index>(std::lower_bound(samples.begin(), samples.end(), sample_of[j]) - samples.begin()));
+      row_sample.push_back(sample_of[j]);
+      ys.push_back(y);
+      ts.push_back(used[j]->time_s);
+      ws.push_back(used[j]->weight);
+    }
+    const auto m = static_cast<Index>(ys.size());
+    sum.measurements = static_cast<int>(m);
+    const auto unusable = [&](std::string why) {
+      sum.usable = false;
+      sum.message = std::move(why);
+      result.usable = false;
+      messages += (messages.empty() ? "" : "; ") + name + ": " + sum.message;
+      result.outputs.push_back(sum);
+      model.outputs.push_back(om);
+    };
+    if (m < options.min_measurements) {
+      unusable("only " + std::to_string(m) + " measurements in the window (min_measurements = " +
+               std::to_string(options.min_measurements) + ")");
+      continue;
+    }
+    if (candidates.empty()) {
+      std::string names;
+      for (const std::string& c : constant) names += (names.empty() ? "" : ", ") + c;
+      unusable("every input is constant over the data (" + names + ")");
+      continue;
+    }
+    Eigen::VectorXd y = Eigen::Map<Eigen::VectorXd>(ys.data(), m);
+    Eigen::VectorXd w = Eigen::Map<Eigen::VectorXd>(ws.data(), m);
+    if (std::isfinite(options.forgetting_half_life_s)) {
+      for (Index r = 0; r < m; ++r) w(r) *= std::exp2(-(ts.back() - ts[static_cast<std::size_t>(r)]) / options.forgetting_half_life_s);
+    }
+    const OutputData data(lags, pos, y, w, options);
+
+    // Structure: inputs with the middle pole, then the poles, then the inputs again with those poles.
+    Structure s{{}, {grid_size / 2}};
+    s.inputs = options.select_inputs ? select_inputs(data, candidates, s.poles, options) : candidates;
+    if (!s.inputs.empty()) {
+      s.poles = select_poles(data, s.inputs, grid_size, options);
+      if (options.select_inputs) {
+        std::vector<int> again = select_inputs(data, candidates, s.poles, options);
+        if (!again.empty() && again != s.inputs) {
+          s.inputs = again;
+          s.poles = select_poles(data, s.inputs, grid_size, options);
+        }
+      }
+    } else {
+      s.poles.clear();
+    }
+
+    // Weighted least squares (QR) of the chosen structure.
+    const Eigen::MatrixXd phi = data.design(s);
+    const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y, w, options.ridge, 1);
+    if (!fit.ok) {
+      unusable("weighted least squares gave no finite solution");
+      continue;
+    }
+    const detail::Conditioning cond = detail::conditioning(phi, w, fit.weighted_rss);
+    Eigen::VectorXd theta = fit.theta;
+    std::vector<double> tau;
+    for (const int g : s.poles) tau.push_back(grid[static_cast<std::size_t>(g)]);
+    std::string notes;
+    if (!constant.empty()) notes += "constant inputs ignored: " + std::to_string(constant.size()) + "; ";
+    if (s.inputs.empty()) notes += "no input improves the criterion: offset only; ";
+    if (s.parameters() >= m) notes += "more parameters than measurements, ridge decides; ";
+
+    detail::RobustSettings rs{options.robust_loss, scale, options.ridge, options.max_iterations};
+    if (!s.inputs.empty() && options.method == IdentificationMethod::OutputError) {
+      detail::OutputErrorData oe{&history, reference, s.inputs, row_sample, y, w, options.tau_min_s / 2.0,
+                                 options.tau_max_s * 2.0};
+      const detail::Refinement r = detail::refine_output_error(oe, tau, theta, rs);
+      sum.cost_before = r.cost_before;
+      sum.cost_after = r.cost_after;
+      if (r.ok && r.cost_after <= r.cost_before) {
+        theta = r.theta;
+        tau = r.tau_s;
+      } else {
+        notes += r.message.empty() ? "output error did not improve, fixed-pole fit kept; " : r.message + "; ";
+      }
+    } else if (options.robust_loss != RobustLoss::None && m > s.parameters()) {
+      const detail::Refinement r = detail::refine_gains(phi, y, w, theta, rs);
+      sum.cost_before = r.cost_before;
+      sum.cost_after = r.cost_after;
+      if (r.ok) theta = r.theta; else notes += r.message + "; ";
+    }
+
+    om.order = static_cast<int>(tau.size());
+    om.inputs = s.inputs;
+    om.parameters = theta;
+    om.poles.resize(static_cast<Index>(tau.size()));
+    for (std::size_t k = 0; k < tau.size(); ++k) om.poles(static_cast<Index>(k)) = pole_of_time_constant(tau[k], options.base_step_s);
+
+    // Simulate the output over the history: residuals at the probes and the bound between them.
+    ThermalModel single;
+    single.input_names = history.input_names;
+    single.input_reference = reference;
+    single.base_step_s = options.base_step_s;
+    single.outputs.push_back(om);
+    ModelPredictor sim(single);
+    double y_max = 0.0;
+    for (Index r = 0; r < m; ++r) y_max = std::max(y_max, std::abs(y(r)));
+    double peak = 0.0;
+    bool finite = true;
+    std::size_t next = 0;
+    double rss = 0.0;
+    sum.residual_max = 0.0;
+    const Index first_sample = row_sample.front();
+    for (Index k = 0; k < n_samples; ++k) {
+      const double v = sim.step(history.time_s[static_cast<std::size_t>(k)], history.inputs.row(k).transpose())(0);
+      finite = finite && std::isfinite(v);
+      if (k >= first_sample) peak = std::max(peak, std::abs(v));
+      while (next < row_sample.size() && row_sample[next] == k) {
+        const double e = y(static_cast<Index>(next)) - v;
+        rss += e * e;
+        sum.residual_max = std::max(sum.residual_max, std::abs(e));
+        ++next;
+      }
+    }
+    sum.residual_rms = std::sqrt(rss / static_cast<double>(m));
+    sum.order = om.order;
+    for (const int i : s.inputs) sum.inputs_chosen.push_back(history.input_names[static_cast<std::size_t>(i)]);
+    sum.condition = cond.condition;
+    sum.time_constants_s = tau;
+    sum.parameter_std = cond.parameter_std;
+    om.output_limit = std::max(options.output_limit_factor * y_max, 20.0 * scale);
+    if (!finite || !theta.allFinite()) {
+      unusable("the fitted model does not give finite predictions");
+      continue;
+    }
+    if (peak > om.output_limit) {
+      unusable("prediction between the probes reaches " + format_number(peak) + " " + unit + ", beyond the bound " +
+               format_number(om.output_limit) + " " + unit + " (" + format_number(options.output_limit_factor) +
+               " x the largest measured error)");
+      continue;
+    }
+    sum.usable = true;
+    if (!notes.empty()) notes.resize(notes.size() - 2);
+    sum.message = notes;
+    result.outputs.push_back(sum);
+    model.outputs.push_back(om);
+  }
+
+  result.message = result.usable ? "identified " + std::to_string(n_out) + " outputs" : messages;
+  result.model = std::move(model);
+  if (result.usable) {
+    ModelPredictor p(result.model);
+    for (Index k = 0; k < n_samples; ++k) p.step(history.time_s[static_cast<std::size_t>(k)], history.inputs.row(k).transpose());
+    result.predictor_state = p.state();
+  }
+  return result;
+}
+
+}  // namespace alc
