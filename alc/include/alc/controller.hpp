@@ -1,0 +1,125 @@
+#pragma once
+// The ALC controller: calibration phase (CP) -> Post-CP <-> No-Good phase (NG), after seed 004.
+//
+// A cycle API without I/O. The caller feeds input samples, probe results and ticks in time order;
+// each call returns what to do: the predicted errors (to turn into offsets), the time the next
+// probe is due, and events (phase changes with reasons, probe-interval changes, model updates,
+// ACL breaches). The replay, the parameter study and the supervisor all drive this class.
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "alc/error_kind.hpp"
+#include "alc/thermal_model.hpp"
+
+namespace alc {
+
+enum class Phase { Calibration, PostCalibration, NoGood };
+std::string_view to_string(Phase phase);
+
+// The parameters of Tab. 1 of seed 004 (all times in seconds; kInf where the paper has "Inf").
+struct AlcParameters {
+  double cp_duration_s = 6.5 * 3600.0;     // [s] calibration phase length
+  double cp_interval_s = 300.0;            // [s] probe interval during CP
+  double post_cp_interval_s = 2 * 3600.0;  // [s] probe interval after CP; inf: no probes after CP
+  double ng_interval_s = 600.0;            // [s] probe interval in NG; inf: no NG burst, re-identify at the breach
+  double ng_measurements = 12;             // [-] NG probes before the update; inf: update after each NG probe
+                                           //     and leave NG at the first probe within the ACL
+  double update_interval_s = kInf;         // [s] periodic re-identification in Post-CP; inf: none
+  double acl_linear_um = 5.0;              // [µm] action control limit of linear errors
+  double acl_angular_um_per_m = 15.0;      // [µm/m] action control limit of angular errors
+  double learning_window_s = kInf;         // [s] re-identify on the data of this last span; inf: all data
+  IdentificationOptions identification;    // window_start_s is set by the controller
+
+  // Empty if valid, else the first violated constraint naming the field and value.
+  std::string validate() const;
+};
+
+// What a probe cycle measured. In closed loop the probe sees the error left after compensation;
+// the thermal error that the model learns is `measured + compensation` (DESIGN.md, closed loop).
+struct ProbeMeasurement {
+  double time_s = 0.0;           // [s]
+  Eigen::VectorXd measured;      // [µm] / [µm/m] per output; NaN where not measured
+  Eigen::VectorXd compensation;  // [µm] / [µm/m] active at probe time; empty = none (open loop)
+};
+
+struct ControllerEvent {
+  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach };
+  Type type = Type::PhaseChange;
+  double time_s = 0.0;           // [s]
+  Phase from = Phase::Calibration;
+  Phase to = Phase::Calibration;
+  double interval_s = 0.0;       // [s] new probe interval (ProbeIntervalChange)
+  std::string output;            // error name (AclBreach)
+  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach)
+  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach)
+  std::string reason;            // human-readable why
+};
+std::string_view to_string(ControllerEvent::Type type);
+
+struct ControllerOutput {
+  Eigen::VectorXd prediction;          // [µm] / [µm/m] predicted errors; zero while no model exists
+  double next_probe_due_s = kInf;      // [s] inf: no probe scheduled
+  std::vector<ControllerEvent> events;
+  std::optional<FitResult> fit;        // the identification that ran in this cycle, if any
+};
+
+// Everything the controller knows: a plain value, so a saved copy restores it bit for bit.
+struct ControllerState {
+  Phase phase = Phase::Calibration;
+  double start_time_s = 0.0;           // [s] time of the first sample
+  bool started = false;
+  double now_s = 0.0;                  // [s] time of the latest input
+  double cp_end_s = kInf;              // [s] when CP ended (inf while in CP)
+  double next_probe_due_s = 0.0;       // [s]
+  double current_interval_s = 0.0;     // [s]
+  double last_update_s = -kInf;        // [s] time of the last successful identification
+  int probe_cycles = 0;                // M of Eq. 7, all phases
+  int ng_probes = 0;                   // probes in the current NG phase
+  int ng_phases = 0;                   // NG phases entered
+  int updates = 0;                     // successful identifications (incl. the first at CP end)
+  int rejected_fits = 0;               // identifications that kept the previous model
+  int probes_at_last_attempt = -1;     // probes seen at the last end-of-CP fit attempt
+  InputHistory history;                // all input samples
+  std::vector<ProbeRecord> probes;     // all probe records (thermal error = measured + compensation)
+  bool has_model = false;
+  ModelPredictor predictor;            // current model with its running state
+  Eigen::VectorXd prediction;          // latest prediction
+};
+
+class Controller {
+ public:
+  // Throws std::invalid_argument if the parameters are invalid or there are no outputs.
+  Controller(std::vector<std::string> input_names, std::vector<std::string> output_names, AlcParameters params);
+  // Restores a saved state (the parameters and names must be those of the saved controller).
+  Controller(std::vector<std::string> input_names, std::vector<std::string> output_names, AlcParameters params,
+             ControllerState state);
+
+  // A new input sample (time strictly increasing). Returns the prediction after it.
+  ControllerOutput on_sample(double time_s, const Eigen::VectorXd& inputs);
+  // A probe cycle finished at `probe.time_s` (not before the latest sample).
+  ControllerOutput on_probe(const ProbeMeasurement& probe);
+  // Time passes without data: phase ends and periodic updates that are due happen here.
+  ControllerOutput on_tick(double time_s);
+
+  const ControllerState& state() const { return state_; }
+  const AlcParameters& parameters() const { return params_; }
+  const std::vector<std::string>& output_names() const { return output_names_; }
+  Phase phase() const { return state_.phase; }
+  double acl_of(std::size_t output) const;
+
+ private:
+  void advance(double time_s, ControllerOutput& out);
+  void set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason);
+  void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
+  bool reidentify(double time_s, ControllerOutput& out, const std::string& reason);
+
+  std::vector<std::string> output_names_;
+  std::vector<ErrorKind> kinds_;
+  AlcParameters params_;
+  ControllerState state_;
+};
+
+}  // namespace alc

@@ -1,0 +1,296 @@
+#include "alc/controller.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace alc {
+
+namespace {
+
+std::string describe(const char* field, double value, const char* constraint) {
+  std::ostringstream s;
+  s << field << " = " << value << ": " << constraint;
+  return s.str();
+}
+
+std::string hours(double s) {
+  std::ostringstream o;
+  o << s / 3600.0 << " h";
+  return o.str();
+}
+
+}  // namespace
+
+std::string_view to_string(Phase phase) {
+  switch (phase) {
+    case Phase::Calibration: return "CP";
+    case Phase::PostCalibration: return "Post-CP";
+    case Phase::NoGood: return "NG";
+  }
+  return "?";
+}
+
+std::string_view to_string(ControllerEvent::Type type) {
+  switch (type) {
+    case ControllerEvent::Type::PhaseChange: return "phase_change";
+    case ControllerEvent::Type::ProbeIntervalChange: return "probe_interval";
+    case ControllerEvent::Type::ModelUpdate: return "model_update";
+    case ControllerEvent::Type::ModelRejected: return "model_rejected";
+    case ControllerEvent::Type::AclBreach: return "acl_breach";
+  }
+  return "?";
+}
+
+std::string AlcParameters::validate() const {
+  auto positive_finite = [](double v) { return std::isfinite(v) && v > 0.0; };
+  auto positive_or_inf = [](double v) { return !std::isnan(v) && v > 0.0; };
+  if (!positive_finite(cp_duration_s)) return describe("cp_duration_s", cp_duration_s, "must be positive and finite");
+  if (!positive_finite(cp_interval_s)) return describe("cp_interval_s", cp_interval_s, "must be positive and finite");
+  if (cp_interval_s > cp_duration_s)
+    return describe("cp_interval_s", cp_interval_s, "must not exceed cp_duration_s");
+  if (!positive_or_inf(post_cp_interval_s))
+    return describe("post_cp_interval_s", post_cp_interval_s, "must be positive or inf");
+  if (!positive_or_inf(ng_interval_s)) return describe("ng_interval_s", ng_interval_s, "must be positive or inf");
+  if (std::isnan(ng_measurements) || ng_measurements < 0.0 ||
+      (std::isfinite(ng_measurements) && ng_measurements != std::floor(ng_measurements)))
+    return describe("ng_measurements", ng_measurements, "must be a whole number >= 0 or inf");
+  if (!positive_or_inf(update_interval_s))
+    return describe("update_interval_s", update_interval_s, "must be positive or inf");
+  if (!positive_finite(acl_linear_um)) return describe("acl_linear_um", acl_linear_um, "must be positive and finite");
+  if (!positive_finite(acl_angular_um_per_m))
+    return describe("acl_angular_um_per_m", acl_angular_um_per_m, "must be positive and finite");
+  if (!positive_or_inf(learning_window_s))
+    return describe("learning_window_s", learning_window_s, "must be positive or inf");
+  if (const std::string why = identification.validate(); !why.empty()) return "identification: " + why;
+  return {};
+}
+
+Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
+                       AlcParameters params)
+    : output_names_(std::move(output_names)), params_(std::move(params)) {
+  if (const std::string why = params_.validate(); !why.empty()) throw std::invalid_argument(why);
+  if (output_names_.empty()) throw std::invalid_argument("controller: no error outputs");
+  for (const auto& name : output_names_) kinds_.push_back(error_kind(name));
+  state_.history.input_names = std::move(input_names);
+  state_.history.inputs.resize(0, static_cast<Eigen::Index>(state_.history.input_names.size()));
+  state_.prediction = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(output_names_.size()));
+}
+
+Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
+                       AlcParameters params, ControllerState state)
+    : Controller(std::move(input_names), std::move(output_names), std::move(params)) {
+  if (state.history.input_names != state_.history.input_names)
+    throw std::invalid_argument("controller: saved state has other input names");
+  if (state.prediction.size() != static_cast<Eigen::Index>(output_names_.size()))
+    throw std::invalid_argument("controller: saved state has another number of outputs");
+  state_ = std::move(state);
+}
+
+double Controller::acl_of(std::size_t output) const {
+  return kinds_[output] == ErrorKind::Angular ? params_.acl_angular_um_per_m : params_.acl_linear_um;
+}
+
+void Controller::set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason) {
+  if (interval_s == state_.current_interval_s) return;
+  state_.current_interval_s = interval_s;
+  ControllerEvent e;
+  e.type = ControllerEvent::Type::ProbeIntervalChange;
+  e.time_s = time_s;
+  e.from = e.to = state_.phase;
+  e.interval_s = interval_s;
+  e.reason = reason;
+  out.events.push_back(std::move(e));
+}
+
+void Controller::change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason) {
+  ControllerEvent e;
+  e.type = ControllerEvent::Type::PhaseChange;
+  e.time_s = time_s;
+  e.from = state_.phase;
+  e.to = to;
+  e.reason = reason;
+  state_.phase = to;
+  out.events.push_back(std::move(e));
+}
+
+bool Controller::reidentify(double time_s, ControllerOutput& out, const std::string& reason) {
+  IdentificationOptions options = params_.identification;
+  options.window_start_s = std::isfinite(params_.learning_window_s) ? time_s - params_.learning_window_s : -kInf;
+  FitResult fit = identify(state_.history, output_names_, state_.probes, options);
+  ControllerEvent e;
+  e.time_s = time_s;
+  e.from = e.to = state_.phase;
+  if (fit.usable) {
+    // The new model runs over the whole input history so that its dynamic state is current.
+    ModelPredictor predictor(fit.model);
+    Eigen::VectorXd prediction = state_.prediction;
+    for (std::size_t i = 0; i < state_.history.time_s.size(); ++i)
+      prediction = predictor.step(state_.history.time_s[i], state_.history.inputs.row(static_cast<Eigen::Index>(i)).transpose());
+    state_.predictor = std::move(predictor);
+    state_.prediction = prediction;
+    state_.has_model = true;
+    state_.last_update_s = time_s;
+    ++state_.updates;
+    e.type = ControllerEvent::Type::ModelUpdate;
+    e.reason = reason + (fit.message.empty() ? "" : ": " + fit.message);
+  } else {
+    ++state_.rejected_fits;
+    e.type = ControllerEvent::Type::ModelRejected;
+    e.reason = reason + ": fit not usable (" + fit.message + ")" +
+               (state_.has_model ? ", previous model kept" : ", no model yet");
+  }
+  out.events.push_back(std::move(e));
+  const bool usable = fit.usable;
+  out.fit = std::move(fit);
+  return usable;
+}
+
+void Controller::advance(double time_s, ControllerOutput& out) {
+  if (state_.phase == Phase::Calibration) {
+    if (time_s < state_.start_time_s + params_.cp_duration_s) return;
+    // Try once per new probe: a failed first fit extends CP until the data suffice.
+    if (static_cast<int>(state_.probes.size()) == state_.probes_at_last_attempt) return;
+    state_.probes_at_last_attempt = static_cast<int>(state_.probes.size());
+    if (!reidentify(time_s, out, "end of calibration phase after " + hours(time_s - state_.start_time_s))) return;
+    state_.cp_end_s = time_s;
+    change_phase(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified");
+    state_.next_probe_due_s = time_s + params_.post_cp_interval_s;
+    set_interval(params_.post_cp_interval_s, time_s, out, "Post-CP interval");
+    return;
+  }
+  if (state_.phase == Phase::PostCalibration && std::isfinite(params_.update_interval_s) &&
+      time_s >= state_.last_update_s + params_.update_interval_s) {
+    // A failed periodic fit waits for the next interval too, so it is not retried every sample.
+    const double due = state_.last_update_s + params_.update_interval_s;
+    if (!reidentify(time_s, out, "periodic parameter update")) state_.last_update_s = due;
+  }
+}
+
+ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inputs) {
+  auto& h = state_.history;
+  if (inputs.size() != static_cast<Eigen::Index>(h.input_names.size()))
+    throw std::invalid_argument("controller: sample has " + std::to_string(inputs.size()) + " inputs, expected " +
+                                std::to_string(h.input_names.size()));
+  if (!inputs.allFinite()) throw std::invalid_argument("controller: sample at t = " + std::to_string(time_s) +
+                                                       " s has a non-finite input");
+  if (state_.started && !(time_s > state_.now_s))
+    throw std::invalid_argument("controller: sample time " + std::to_string(time_s) +
+                                " s is not after the previous one (" + std::to_string(state_.now_s) + " s)");
+  ControllerOutput out;
+  if (!state_.started) {
+    state_.started = true;
+    state_.start_time_s = time_s;
+    state_.next_probe_due_s = time_s;
+    set_interval(params_.cp_interval_s, time_s, out, "calibration phase starts");
+  }
+  state_.now_s = time_s;
+  h.time_s.push_back(time_s);
+  const Eigen::Index row = h.inputs.rows();
+  h.inputs.conservativeResize(row + 1, Eigen::NoChange);
+  h.inputs.row(row) = inputs.transpose();
+  if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
+  advance(time_s, out);
+  out.prediction = state_.prediction;
+  out.next_probe_due_s = state_.next_probe_due_s;
+  return out;
+}
+
+ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
+  const auto n = static_cast<Eigen::Index>(output_names_.size());
+  if (!state_.started) throw std::invalid_argument("controller: probe before the first input sample");
+  if (probe.measured.size() != n)
+    throw std::invalid_argument("controller: probe has " + std::to_string(probe.measured.size()) +
+                                " errors, expected " + std::to_string(n));
+  if (probe.compensation.size() != 0 && probe.compensation.size() != n)
+    throw std::invalid_argument("controller: probe compensation has " + std::to_string(probe.compensation.size()) +
+                                " values, expected " + std::to_string(n));
+  if (probe.time_s < state_.now_s)
+    throw std::invalid_argument("controller: probe at t = " + std::to_string(probe.time_s) +
+                                " s is before the latest sample");
+  ControllerOutput out;
+  const double t = probe.time_s;
+  ProbeRecord record;
+  record.time_s = t;
+  record.sample_index = state_.history.time_s.size() - 1;
+  record.errors = probe.compensation.size() == n ? Eigen::VectorXd(probe.measured + probe.compensation) : probe.measured;
+  state_.probes.push_back(record);
+  ++state_.probe_cycles;
+
+  // Residual against the prediction that was active when the probe ran.
+  std::vector<std::size_t> breaches;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double residual = record.errors[i] - state_.prediction[i];
+    if (std::isnan(residual)) continue;
+    const auto k = static_cast<std::size_t>(i);
+    if (std::abs(residual) > acl_of(k)) {
+      breaches.push_back(k);
+      if (state_.phase != Phase::Calibration) {
+        ControllerEvent e;
+        e.type = ControllerEvent::Type::AclBreach;
+        e.time_s = t;
+        e.from = e.to = state_.phase;
+        e.output = output_names_[k];
+        e.value = residual;
+        e.limit = acl_of(k);
+        e.reason = "residual beyond the action control limit";
+        out.events.push_back(std::move(e));
+      }
+    }
+  }
+
+  switch (state_.phase) {
+    case Phase::Calibration:
+      state_.next_probe_due_s = t + params_.cp_interval_s;
+      advance(t, out);
+      break;
+    case Phase::PostCalibration:
+      if (breaches.empty()) {
+        state_.next_probe_due_s = t + params_.post_cp_interval_s;
+      } else if (!std::isfinite(params_.ng_interval_s) || params_.ng_measurements == 0.0) {
+        // No NG burst configured: learn from what is there, right away.
+        reidentify(t, out, "ACL breach (" + output_names_[breaches.front()] + "), update without NG burst");
+        state_.next_probe_due_s = t + params_.post_cp_interval_s;
+      } else {
+        ++state_.ng_phases;
+        state_.ng_probes = 0;
+        change_phase(Phase::NoGood, t, out, "ACL breach on " + output_names_[breaches.front()]);
+        state_.next_probe_due_s = t + params_.ng_interval_s;
+        set_interval(params_.ng_interval_s, t, out, "NG interval");
+      }
+      break;
+    case Phase::NoGood: {
+      ++state_.ng_probes;
+      const bool finite_count = std::isfinite(params_.ng_measurements);
+      if (finite_count && state_.ng_probes < params_.ng_measurements) {
+        state_.next_probe_due_s = t + params_.ng_interval_s;
+        break;
+      }
+      if (!finite_count && !breaches.empty()) {
+        reidentify(t, out, "NG probe " + std::to_string(state_.ng_probes) + " still beyond the ACL");
+        state_.next_probe_due_s = t + params_.ng_interval_s;
+        break;
+      }
+      if (finite_count) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+      change_phase(Phase::PostCalibration, t, out,
+                   finite_count ? "NG measurements complete" : "NG probe within the ACL");
+      state_.next_probe_due_s = t + params_.post_cp_interval_s;
+      set_interval(params_.post_cp_interval_s, t, out, "Post-CP interval");
+      break;
+    }
+  }
+  out.prediction = state_.prediction;
+  out.next_probe_due_s = state_.next_probe_due_s;
+  return out;
+}
+
+ControllerOutput Controller::on_tick(double time_s) {
+  ControllerOutput out;
+  if (!state_.started) return out;
+  advance(time_s, out);
+  out.prediction = state_.prediction;
+  out.next_probe_due_s = state_.next_probe_due_s;
+  return out;
+}
+
+}  // namespace alc

@@ -1,0 +1,273 @@
+// The ALC state machine on scripted probe results: CP -> Post-CP -> NG -> update -> Post-CP,
+// the update interval, each `inf`, an ACL breach on an angular error only, save/restore.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <functional>
+
+#include "alc/controller.hpp"
+
+using namespace alc;
+
+namespace {
+
+constexpr double kMinute = 60.0;
+constexpr double kHour = 3600.0;
+
+// A plant whose errors follow one input exactly: E = gain * (T - 20) + offset.
+struct Plant {
+  double offset_x = 0.0;  // [µm] scripted disturbance added to E_X0C
+  double offset_a = 0.0;  // [µm/m] scripted disturbance added to E_A0C
+  static double temperature(double t) { return 20.0 + 2.0 * std::sin(2.0 * M_PI * t / (6.0 * kHour)); }
+  Eigen::VectorXd inputs(double t) const {
+    Eigen::VectorXd u(2);
+    u << temperature(t), 500.0 + 400.0 * std::sin(2.0 * M_PI * t / (2.5 * kHour));
+    return u;
+  }
+  Eigen::VectorXd errors(double t) const {
+    Eigen::VectorXd e(2);
+    e << 3.0 * (temperature(t) - 20.0) + offset_x, -4.0 * (temperature(t) - 20.0) + offset_a;
+    return e;
+  }
+};
+
+AlcParameters test_parameters() {
+  AlcParameters p;
+  p.cp_duration_s = 2 * kHour;
+  p.cp_interval_s = 5 * kMinute;
+  p.post_cp_interval_s = 1 * kHour;
+  p.ng_interval_s = 10 * kMinute;
+  p.ng_measurements = 3;
+  p.identification.max_order = 1;
+  p.identification.min_measurements = 6;
+  return p;
+}
+
+// Drives a controller minute by minute, probing whenever it asks; collects every event.
+struct Driver {
+  Plant plant;
+  Controller controller;
+  std::vector<ControllerEvent> events;
+  int probes = 0;
+  double t = 0.0;
+  explicit Driver(AlcParameters p)
+      : controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, std::move(p)) {}
+  void run_until(double end_s, const std::function<void(double)>& before_probe = {}) {
+    for (; t < end_s; t += kMinute) {
+      auto out = controller.on_sample(t, plant.inputs(t));
+      events.insert(events.end(), out.events.begin(), out.events.end());
+      if (t >= out.next_probe_due_s) {
+        if (before_probe) before_probe(t);
+        ProbeMeasurement m{t, plant.errors(t), {}};
+        auto pout = controller.on_probe(m);
+        ++probes;
+        events.insert(events.end(), pout.events.begin(), pout.events.end());
+      }
+    }
+  }
+  std::vector<ControllerEvent> of_type(ControllerEvent::Type type) const {
+    std::vector<ControllerEvent> r;
+    for (const auto& e : events)
+      if (e.type == type) r.push_back(e);
+    return r;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
+  Driver d(test_parameters());
+  d.run_until(2 * kHour + 30 * kMinute);
+  const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() == 1);
+  CHECK(phases[0].from == Phase::Calibration);
+  CHECK(phases[0].to == Phase::PostCalibration);
+  CHECK(phases[0].time_s == 2 * kHour);
+  CHECK(d.of_type(ControllerEvent::Type::ModelUpdate).size() == 1);
+  const auto intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(intervals.size() == 2);
+  CHECK(intervals[0].interval_s == 5 * kMinute);
+  CHECK(intervals[1].interval_s == 1 * kHour);
+  CHECK(d.controller.state().next_probe_due_s == 3 * kHour);
+  // CP probes at 0, 5, ..., 115 min, and one at 120 min: 25 probe cycles.
+  CHECK(d.controller.state().probe_cycles == 25);
+  // The model learned the plant: prediction close to the truth.
+  const auto out = d.controller.on_tick(d.t);
+  CHECK_THAT(out.prediction[0], Catch::Matchers::WithinAbs(d.plant.errors(d.t - kMinute)[0], 0.5));
+}
+
+TEST_CASE("controller: an ACL breach starts NG; after N probes the model is updated and Post-CP resumes") {
+  Driver d(test_parameters());
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_x = 12.0;  // a step the model cannot know: residual 12 µm > 5 µm
+  d.run_until(5 * kHour);
+  const auto breaches = d.of_type(ControllerEvent::Type::AclBreach);
+  REQUIRE(!breaches.empty());
+  CHECK(breaches[0].output == "E_X0C");
+  CHECK(breaches[0].time_s == 3 * kHour);
+  CHECK_THAT(breaches[0].value, Catch::Matchers::WithinAbs(12.0, 0.5));
+  CHECK(breaches[0].limit == 5.0);
+  const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() >= 3);
+  CHECK(phases[1].to == Phase::NoGood);
+  CHECK(phases[1].time_s == 3 * kHour);
+  CHECK(phases[2].to == Phase::PostCalibration);
+  CHECK(phases[2].time_s == 3 * kHour + 30 * kMinute);  // 3 NG probes at 10 min
+  const auto updates = d.of_type(ControllerEvent::Type::ModelUpdate);
+  REQUIRE(updates.size() == 2);
+  CHECK(updates[1].time_s == 3 * kHour + 30 * kMinute);
+  const auto intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(intervals.size() == 4);
+  CHECK(intervals[2].interval_s == 10 * kMinute);
+  CHECK(intervals[3].interval_s == 1 * kHour);
+  CHECK(d.controller.state().ng_phases == 1);
+}
+
+TEST_CASE("controller: a breach on an angular error only is judged against the angular limit") {
+  Driver d(test_parameters());
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_a = 10.0;  // 10 µm/m: beyond 5 (linear) but within 15 µm/m
+  d.run_until(4 * kHour - kMinute);
+  CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+  CHECK(d.controller.phase() == Phase::PostCalibration);
+  d.plant.offset_a = 20.0;
+  d.run_until(4 * kHour + kMinute);
+  const auto breaches = d.of_type(ControllerEvent::Type::AclBreach);
+  REQUIRE(breaches.size() == 1);
+  CHECK(breaches[0].output == "E_A0C");
+  CHECK(breaches[0].limit == 15.0);
+  CHECK(d.controller.phase() == Phase::NoGood);
+}
+
+TEST_CASE("controller: the periodic parameter update interval") {
+  AlcParameters p = test_parameters();
+  p.update_interval_s = 3 * kHour;
+  Driver d(p);
+  d.run_until(12 * kHour);
+  const auto updates = d.of_type(ControllerEvent::Type::ModelUpdate);
+  // First model at 2 h, then periodic updates at 5, 8 and 11 h (no breaches on this plant).
+  REQUIRE(updates.size() == 4);
+  CHECK(updates[1].time_s == 5 * kHour);
+  CHECK(updates[2].time_s == 8 * kHour);
+  CHECK(updates[3].time_s == 11 * kHour);
+  CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+}
+
+TEST_CASE("controller: Post-CP interval inf means no probe after CP") {
+  AlcParameters p = test_parameters();
+  p.post_cp_interval_s = kInf;
+  Driver d(p);
+  d.run_until(10 * kHour);
+  CHECK(d.controller.state().probe_cycles == 25);
+  CHECK(std::isinf(d.controller.state().next_probe_due_s));
+}
+
+TEST_CASE("controller: NG interval inf re-identifies at the breach without a burst") {
+  AlcParameters p = test_parameters();
+  p.ng_interval_s = kInf;
+  Driver d(p);
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_x = 12.0;
+  d.run_until(3 * kHour + kMinute);
+  CHECK(d.of_type(ControllerEvent::Type::AclBreach).size() == 1);
+  CHECK(d.controller.phase() == Phase::PostCalibration);
+  CHECK(d.of_type(ControllerEvent::Type::ModelUpdate).size() == 2);
+  CHECK(d.controller.state().ng_phases == 0);
+  CHECK(d.controller.state().next_probe_due_s == 4 * kHour);
+}
+
+TEST_CASE("controller: NG measurements inf stays in NG until a probe is within the ACL") {
+  AlcParameters p = test_parameters();
+  p.ng_measurements = kInf;
+  Driver d(p);
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_x = 12.0;
+  d.run_until(3 * kHour + 25 * kMinute);
+  CHECK(d.controller.phase() == Phase::NoGood);
+  d.plant.offset_x = 0.0;  // disturbance gone: but the model has learned part of the step ...
+  d.run_until(6 * kHour);
+  // ... so the controller leaves NG at the first probe within the ACL and probes hourly again.
+  const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() >= 3);
+  CHECK(phases.back().to == Phase::PostCalibration);
+  CHECK(phases.back().reason == "NG probe within the ACL");
+  CHECK(d.controller.state().current_interval_s == 1 * kHour);
+}
+
+TEST_CASE("controller: NG measurements 0 updates right at the breach") {
+  AlcParameters p = test_parameters();
+  p.ng_measurements = 0;
+  Driver d(p);
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_x = 12.0;
+  d.run_until(3 * kHour + kMinute);
+  CHECK(d.controller.phase() == Phase::PostCalibration);
+  CHECK(d.of_type(ControllerEvent::Type::ModelUpdate).size() == 2);
+}
+
+TEST_CASE("controller: invalid parameters are refused naming the field and value") {
+  AlcParameters p = test_parameters();
+  p.ng_measurements = 2.5;
+  CHECK(p.validate() == "ng_measurements = 2.5: must be a whole number >= 0 or inf");
+  p = test_parameters();
+  p.cp_duration_s = kInf;
+  CHECK(p.validate() == "cp_duration_s = inf: must be positive and finite");
+  p = test_parameters();
+  p.acl_linear_um = -1.0;
+  CHECK_THROWS_WITH(Controller({"T"}, {"E_X0C"}, p), "acl_linear_um = -1: must be positive and finite");
+}
+
+TEST_CASE("controller: samples out of order and malformed probes are refused") {
+  Controller c({"T"}, {"E_X0C"}, test_parameters());
+  Eigen::VectorXd u(1);
+  u << 20.0;
+  c.on_sample(60.0, u);
+  CHECK_THROWS_AS(c.on_sample(60.0, u), std::invalid_argument);
+  CHECK_THROWS_AS(c.on_probe(ProbeMeasurement{30.0, Eigen::VectorXd::Zero(1), {}}), std::invalid_argument);
+  CHECK_THROWS_AS(c.on_probe(ProbeMeasurement{90.0, Eigen::VectorXd::Zero(2), {}}), std::invalid_argument);
+  Eigen::VectorXd bad(1);
+  bad << std::nan("");
+  CHECK_THROWS_AS(c.on_sample(120.0, bad), std::invalid_argument);
+}
+
+TEST_CASE("controller: closed loop learns measured residual plus the active compensation") {
+  Controller c({"T"}, {"E_X0C"}, test_parameters());
+  Eigen::VectorXd u(1);
+  u << 20.0;
+  c.on_sample(0.0, u);
+  Eigen::VectorXd measured(1), comp(1);
+  measured << 1.5;
+  comp << 4.0;
+  c.on_probe(ProbeMeasurement{0.0, measured, comp});
+  REQUIRE(c.state().probes.size() == 1);
+  CHECK(c.state().probes[0].errors[0] == 5.5);
+}
+
+TEST_CASE("controller: a restored state continues bit for bit") {
+  AlcParameters p = test_parameters();
+  p.update_interval_s = 2 * kHour;
+  // Save at many points; each copy continues on its own and must match the uninterrupted run.
+  for (double stop : {1 * kHour, 2 * kHour, 3 * kHour + 10 * kMinute, 4 * kHour + 10 * kMinute}) {
+    Driver a(p), b(p);
+    a.run_until(stop);
+    b.run_until(stop);
+    Controller restored({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p, a.controller.state());
+    for (double t = stop; t < 9 * kHour; t += kMinute) {
+      if (t >= 4 * kHour) b.plant.offset_x = 9.0;
+      const auto ob = b.controller.on_sample(t, b.plant.inputs(t));
+      const auto orr = restored.on_sample(t, b.plant.inputs(t));
+      REQUIRE(ob.prediction == orr.prediction);
+      REQUIRE(ob.next_probe_due_s == orr.next_probe_due_s);
+      REQUIRE(ob.events.size() == orr.events.size());
+      if (t >= ob.next_probe_due_s) {
+        ProbeMeasurement m{t, b.plant.errors(t), {}};
+        const auto pb = b.controller.on_probe(m);
+        const auto pr = restored.on_probe(m);
+        REQUIRE(pb.prediction == pr.prediction);
+        REQUIRE(pb.events.size() == pr.events.size());
+        for (std::size_t i = 0; i < pb.events.size(); ++i) REQUIRE(pb.events[i].reason == pr.events[i].reason);
+      }
+    }
+    CHECK(restored.state().updates == b.controller.state().updates);
+    CHECK(restored.state().updates >= 3);
+  }
+}
