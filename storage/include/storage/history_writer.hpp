@@ -89,6 +89,7 @@ class HistoryWriter {
 
  private:
   struct Impl;
+  Impl& live() const;  // the open writer, or std::logic_error after close() or a move
   std::unique_ptr<Impl> impl_;
 };
 

@@ -16,3 +16,14 @@ inline constexpr int kSchemaVersion = 2;
 std::filesystem::path default_history_path();
 
 }  // namespace alc::storage
+
+#include <string_view>
+
+namespace alc::storage {
+
+// The SQL that takes schema version `to_version - 1` to `to_version` (1 ≤ to_version ≤
+// kSchemaVersion). Version 1 creates the base tables; version 2 adds nc_commands. Exposed so that
+// tests can build a database of an old version exactly as that version did.
+std::string_view migration_sql(int to_version);
+
+}  // namespace alc::storage

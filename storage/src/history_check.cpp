@@ -1,0 +1,119 @@
+// `alc db check`: SQLite's own checks, then the project's consistency rules (docs/storage.md).
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "sqlite_db.hpp"
+#include "storage/history_tools.hpp"
+#include "storage/storage_error.hpp"
+
+namespace alc::storage {
+using detail::Database;
+using detail::Statement;
+
+namespace {
+
+constexpr int kMaxReported = 20;  // per check, so a broken file does not flood the terminal
+
+// Adds one problem per row of `sql`; the row's columns are joined into `label: c0 c1 …`.
+void report_rows(Database& db, std::string_view sql, const std::string& label, CheckReport& report) {
+  Statement st(db, sql);
+  int n = 0;
+  while (st.step()) {
+    if (++n > kMaxReported) {
+      report.problems.push_back(label + ": more rows not shown");
+      break;
+    }
+    std::string line = label + ":";
+    for (int c = 0; c < st.column_count(); ++c) line.append(" ").append(st.column_text(c));
+    report.problems.push_back(line);
+  }
+}
+
+}  // namespace
+
+CheckReport check_history(const std::filesystem::path& path) {
+  CheckReport report;
+  int version = 0;
+  auto db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, version);
+  db->exec("PRAGMA query_only = ON");
+
+  {
+    Statement st(*db, "PRAGMA integrity_check(50)");
+    while (st.step()) {
+      const std::string row = st.column_text(0);
+      if (row != "ok") report.problems.push_back("integrity_check: " + row);
+    }
+  }
+  {
+    Statement st(*db, "PRAGMA foreign_key_check");
+    int n = 0;
+    while (st.step() && ++n <= kMaxReported)
+      report.problems.push_back("foreign key: table " + st.column_text(0) + " row " + st.column_text(1) +
+                                " refers to a missing row of " + st.column_text(2));
+  }
+  // If SQLite already sees damage, the project checks below could fail on unreadable pages.
+  if (!report.ok()) return report;
+
+  {
+    Statement st(*db, "SELECT run_id, config_json, status, ended_unix_s IS NULL FROM runs ORDER BY run_id");
+    while (st.step()) {
+      const std::string run = "run " + st.column_text(0);
+      if (!nlohmann::json::accept(st.column_text(1))) report.problems.push_back(run + ": configuration is not valid JSON");
+      if (st.column_text(2) == "finished" && st.column_int(3) != 0)
+        report.problems.push_back(run + ": finished but has no end time");
+    }
+  }
+  // Channel indices of every run and kind are 0..n-1.
+  report_rows(*db,
+              "SELECT run_id, kind FROM run_channels GROUP BY run_id, kind "
+              "HAVING COUNT(*) != MAX(channel_index) + 1 OR MIN(channel_index) != 0",
+              "run_channels: channel indices not 0..n-1", report);
+  // Vector lengths match the run's channel counts.
+  const std::string counts =
+      "WITH c AS (SELECT r.run_id, "
+      "(SELECT COUNT(*) FROM run_channels k WHERE k.run_id = r.run_id AND k.kind = 'input') AS n_in, "
+      "(SELECT COUNT(*) FROM run_channels k WHERE k.run_id = r.run_id AND k.kind = 'output') AS n_out, "
+      "(SELECT COUNT(*) FROM run_channels k WHERE k.run_id = r.run_id AND k.kind = 'offset') AS n_off FROM runs r) ";
+  report_rows(*db, counts + "SELECT s.run_id, s.sample_index FROM input_samples s JOIN c USING (run_id) "
+                            "WHERE length(s.values_f64) != 8 * c.n_in",
+              "input_samples: value count differs from the run's inputs (run, sample)", report);
+  report_rows(*db, counts + "SELECT p.run_id, p.probe_id FROM probe_measurements p JOIN c USING (run_id) "
+                            "WHERE length(p.measured_f64) != 8 * c.n_out OR length(p.compensation_f64) != 8 * c.n_out",
+              "probe_measurements: error count differs from the run's outputs (run, probe_id)", report);
+  report_rows(*db, counts + "SELECT p.run_id, p.prediction_id FROM predictions p JOIN c USING (run_id) "
+                            "WHERE length(p.predicted_f64) != 8 * c.n_out OR length(p.offsets_f64) != 8 * c.n_off",
+              "predictions: vector length differs from the run's channels (run, prediction_id)", report);
+  // Time order: strictly increasing samples, never decreasing records, per run.
+  report_rows(*db,
+              "SELECT run_id, sample_index, time_s FROM (SELECT run_id, sample_index, time_s, "
+              "LAG(time_s) OVER (PARTITION BY run_id ORDER BY sample_index) AS previous FROM input_samples) "
+              "WHERE previous >= time_s",
+              "input_samples: time_s not strictly increasing (run, sample, time_s)", report);
+  struct Timed {
+    const char* table;
+    const char* id;
+  };
+  for (const Timed t : {Timed{"probe_measurements", "probe_id"}, Timed{"predictions", "prediction_id"},
+                        Timed{"model_parameter_sets", "model_id"}, Timed{"phase_changes", "phase_change_id"},
+                        Timed{"probe_interval_changes", "interval_change_id"}, Timed{"nc_commands", "nc_command_id"}}) {
+    if (!db->table_exists(t.table)) continue;
+    const std::string table = t.table, id = t.id;
+    report_rows(*db,
+                "SELECT run_id, " + id + ", time_s FROM (SELECT run_id, " + id + ", time_s, LAG(time_s) OVER "
+                "(PARTITION BY run_id ORDER BY " + id + ") AS previous FROM " + table + ") WHERE previous > time_s",
+                table + ": time_s decreases (run, id, time_s)", report);
+  }
+  {
+    Statement st(*db, "SELECT snapshot_id, run_id, format, is_json, payload, next_sample_index FROM controller_snapshots");
+    while (st.step()) {
+      const std::string which = "controller_snapshots: snapshot " + st.column_text(0) + " of run " + st.column_text(1);
+      if (st.column_text(2).empty()) report.problems.push_back(which + " has no format");
+      if (st.column_int(3) != 0 && !nlohmann::json::accept(st.column_blob(4)))
+        report.problems.push_back(which + ": JSON payload does not parse");
+      if (st.column_int(5) < 0) report.problems.push_back(which + ": negative next_sample_index");
+    }
+  }
+  return report;
+}
+
+}  // namespace alc::storage

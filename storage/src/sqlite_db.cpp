@@ -1,0 +1,363 @@
+#include "sqlite_db.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "storage/schema.hpp"
+
+namespace alc::storage::detail {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::uint32_t big_endian_u32(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         std::uint32_t{p[3]};
+}
+
+std::string hex32(std::int32_t value) {
+  char text[16];
+  std::snprintf(text, sizeof text, "0x%08X", static_cast<unsigned>(value));
+  return text;
+}
+
+StorageErrorKind kind_of_errno(int err, StorageErrorKind fallback) {
+  switch (err) {
+    case EACCES: case EPERM: case EROFS: return StorageErrorKind::ReadOnly;
+    case ENOSPC: case EDQUOT: return StorageErrorKind::DiskFull;
+    case ENOENT: return StorageErrorKind::NotFound;
+    default: return fallback;
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+Database::Database(sqlite3* handle, fs::path file, int busy_timeout_ms)
+    : db_(handle), file_(std::move(file)), busy_timeout_ms_(busy_timeout_ms) {}
+
+Database::~Database() { sqlite3_close_v2(db_); }
+
+void Database::fail(int rc, const std::string& what) {
+  const int primary = rc & 0xff;
+  const int sys = sqlite3_system_errno(db_);
+  std::string detail = sqlite3_errmsg(db_);
+  if (sys != 0) detail += std::string(", ") + std::strerror(sys);
+  StorageErrorKind kind = StorageErrorKind::Io;
+  std::string cause;
+  switch (primary) {
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+      kind = StorageErrorKind::Locked;
+      cause = "locked by another connection; gave up after the busy timeout of " +
+              std::to_string(busy_timeout_ms_) + " ms";
+      break;
+    case SQLITE_READONLY:
+      kind = StorageErrorKind::ReadOnly;
+      cause = "the file or its directory is read-only";
+      break;
+    case SQLITE_FULL:
+      kind = StorageErrorKind::DiskFull;
+      cause = "disk full (or the max_page_count cap reached)";
+      break;
+    case SQLITE_CORRUPT:
+      kind = StorageErrorKind::Corrupt;
+      cause = "the file is corrupted";
+      break;
+    case SQLITE_NOTADB:
+      kind = StorageErrorKind::NotADatabase;
+      cause = "not an SQLite database";
+      break;
+    case SQLITE_CANTOPEN:
+      kind = kind_of_errno(sys, StorageErrorKind::Io);
+      cause = kind == StorageErrorKind::ReadOnly ? "cannot open: permission denied or read-only file system"
+                                                 : "cannot open";
+      break;
+    case SQLITE_IOERR:
+      kind = kind_of_errno(sys, StorageErrorKind::Io);
+      cause = kind == StorageErrorKind::DiskFull ? "disk full" : "I/O error";
+      break;
+    case SQLITE_CONSTRAINT:
+    case SQLITE_MISMATCH:
+    case SQLITE_RANGE:
+      kind = StorageErrorKind::InvalidArgument;
+      cause = "record rejected";
+      break;
+    default:
+      cause = "SQLite error";
+      break;
+  }
+  throw StorageError(kind, file_, what + ": " + cause + " (" + detail + ")");
+}
+
+void Database::exec(std::string_view sql) {
+  char* message = nullptr;
+  const int rc = sqlite3_exec(db_, std::string(sql).c_str(), nullptr, nullptr, &message);
+  sqlite3_free(message);
+  if (rc != SQLITE_OK) fail(rc, "executing '" + std::string(sql.substr(0, 60)) + "'");
+}
+
+std::int64_t Database::query_int(std::string_view sql) {
+  Statement st(*this, sql);
+  return st.step() ? st.column_int(0) : 0;
+}
+
+std::string Database::query_text(std::string_view sql) {
+  Statement st(*this, sql);
+  return st.step() ? st.column_text(0) : std::string();
+}
+
+bool Database::table_exists(std::string_view table) {
+  Statement st(*this, "SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = ?1");
+  st.bind_text(1, table);
+  return st.step();
+}
+
+// ---------------------------------------------------------------------------------------------
+Statement::Statement(Database& db, std::string_view sql) : db_(&db) {
+  const int rc = sqlite3_prepare_v3(db.handle(), sql.data(), static_cast<int>(sql.size()),
+                                    SQLITE_PREPARE_PERSISTENT, &stmt_, nullptr);
+  if (rc != SQLITE_OK) db.fail(rc, "preparing '" + std::string(sql.substr(0, 60)) + "'");
+}
+
+Statement::Statement(Statement&& other) noexcept : db_(other.db_), stmt_(other.stmt_) {
+  other.stmt_ = nullptr;
+}
+
+Statement::~Statement() { sqlite3_finalize(stmt_); }
+
+#define ALC_BIND(call)                                   \
+  do {                                                   \
+    const int rc_ = (call);                              \
+    if (rc_ != SQLITE_OK) db_->fail(rc_, "binding a value"); \
+  } while (0)
+
+Statement& Statement::bind(int index, double value) {
+  ALC_BIND(sqlite3_bind_double(stmt_, index, value));
+  return *this;
+}
+Statement& Statement::bind(int index, std::int64_t value) {
+  ALC_BIND(sqlite3_bind_int64(stmt_, index, value));
+  return *this;
+}
+Statement& Statement::bind_text(int index, std::string_view text) {
+  ALC_BIND(sqlite3_bind_text64(stmt_, index, text.data(), text.size(), SQLITE_TRANSIENT, SQLITE_UTF8));
+  return *this;
+}
+Statement& Statement::bind_blob(int index, std::string_view bytes) {
+  // A null pointer would bind NULL; an empty blob stays an empty blob.
+  if (bytes.empty()) {
+    ALC_BIND(sqlite3_bind_zeroblob(stmt_, index, 0));
+  } else {
+    ALC_BIND(sqlite3_bind_blob64(stmt_, index, bytes.data(), bytes.size(), SQLITE_TRANSIENT));
+  }
+  return *this;
+}
+Statement& Statement::bind_null(int index) {
+  ALC_BIND(sqlite3_bind_null(stmt_, index));
+  return *this;
+}
+#undef ALC_BIND
+
+bool Statement::step() {
+  const int rc = sqlite3_step(stmt_);
+  if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) return false;
+  sqlite3_reset(stmt_);
+  db_->fail(rc, "running '" + std::string(sqlite3_sql(stmt_)).substr(0, 60) + "'");
+}
+
+void Statement::run() {
+  while (step()) {
+  }
+  reset();
+}
+
+void Statement::reset() {
+  sqlite3_reset(stmt_);
+  sqlite3_clear_bindings(stmt_);
+}
+
+int Statement::column_count() const { return sqlite3_column_count(stmt_); }
+bool Statement::is_null(int column) const { return sqlite3_column_type(stmt_, column) == SQLITE_NULL; }
+double Statement::column_double(int column) const { return sqlite3_column_double(stmt_, column); }
+std::int64_t Statement::column_int(int column) const { return sqlite3_column_int64(stmt_, column); }
+std::string Statement::column_text(int column) const {
+  const auto* text = sqlite3_column_text(stmt_, column);
+  const int size = sqlite3_column_bytes(stmt_, column);
+  return text ? std::string(reinterpret_cast<const char*>(text), static_cast<std::size_t>(size)) : std::string();
+}
+std::string Statement::column_blob(int column) const {
+  const void* blob = sqlite3_column_blob(stmt_, column);
+  const int size = sqlite3_column_bytes(stmt_, column);
+  return blob ? std::string(static_cast<const char*>(blob), static_cast<std::size_t>(size)) : std::string();
+}
+
+// ---------------------------------------------------------------------------------------------
+HeaderFacts inspect_header(const fs::path& file) {
+  HeaderFacts facts;
+  std::error_code ec;
+  const auto status = fs::status(file, ec);
+  if (!fs::exists(status)) return facts;
+  facts.exists = true;
+  if (!fs::is_regular_file(status))
+    throw StorageError(StorageErrorKind::NotADatabase, file, "not a regular file");
+  const auto size = fs::file_size(file, ec);
+  if (ec) throw StorageError(StorageErrorKind::Io, file, "cannot read its size: " + ec.message());
+  if (size == 0) {
+    facts.empty = true;
+    return facts;
+  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw StorageError(kind_of_errno(errno, StorageErrorKind::Io), file,
+                              std::string("cannot open for reading: ") + std::strerror(errno));
+  std::array<unsigned char, 100> header{};
+  in.read(reinterpret_cast<char*>(header.data()), header.size());
+  const auto got = static_cast<std::size_t>(in.gcount());
+  static constexpr char kMagic[16] = {'S', 'Q', 'L', 'i', 't', 'e', ' ', 'f', 'o', 'r', 'm', 'a', 't', ' ', '3', '\0'};
+  const std::size_t compare = std::min<std::size_t>(got, sizeof kMagic);
+  if (std::memcmp(header.data(), kMagic, compare) != 0)
+    throw StorageError(StorageErrorKind::NotADatabase, file,
+                       "not an SQLite database (no 'SQLite format 3' header); left untouched");
+  if (got < header.size())
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "truncated: " + std::to_string(got) + " bytes, shorter than the 100-byte SQLite header");
+  std::uint32_t page_size = (std::uint32_t{header[16]} << 8) | header[17];
+  if (page_size == 1) page_size = 65536;
+  if (page_size < 512 || page_size > 65536 || (page_size & (page_size - 1)) != 0)
+    throw StorageError(StorageErrorKind::Corrupt, file, "corrupted header: page size " + std::to_string(page_size));
+  if (size % page_size != 0)
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "truncated: " + std::to_string(size) + " bytes is not a whole number of " +
+                           std::to_string(page_size) + "-byte pages");
+  // The in-header page count is valid when the change counter matches "version-valid-for"; a WAL
+  // file beside it may still hold pages not yet copied back, so judge only without one.
+  const std::uint32_t pages = big_endian_u32(&header[28]);
+  const bool count_valid = pages != 0 && std::memcmp(&header[24], &header[92], 4) == 0;
+  fs::path wal = file;
+  wal += "-wal";
+  const bool wal_has_frames = fs::exists(wal, ec) && fs::file_size(wal, ec) > 0;
+  if (count_valid && !wal_has_frames && std::uint64_t{pages} * page_size > size)
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "truncated: the header counts " + std::to_string(pages) + " pages of " +
+                           std::to_string(page_size) + " bytes but the file has " + std::to_string(size) + " bytes");
+  facts.user_version = static_cast<std::int32_t>(big_endian_u32(&header[60]));
+  facts.application_id = static_cast<std::int32_t>(big_endian_u32(&header[68]));
+  if (facts.application_id != 0 && facts.application_id != kApplicationId)
+    throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                       "an SQLite database of another program: application_id " + hex32(facts.application_id) +
+                           ", ALC's is " + hex32(kApplicationId) + "; left untouched");
+  if (facts.application_id == kApplicationId && facts.user_version > kSchemaVersion)
+    throw StorageError(StorageErrorKind::NewerSchema, file,
+                       "schema version " + std::to_string(facts.user_version) + " is newer than this alc (" +
+                           std::to_string(kSchemaVersion) + "); use a newer alc; left untouched");
+  return facts;
+}
+
+std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions& options, int& version_found) {
+  const HeaderFacts facts = inspect_header(file);
+  const bool write = options.mode == OpenMode::Write;
+  if (!facts.exists && !write)
+    throw StorageError(StorageErrorKind::NotFound, file, "no such file");
+  if (facts.empty && !write)
+    throw StorageError(StorageErrorKind::NotADatabase, file, "an empty file, not an ALC history");
+  if (!facts.exists) {
+    const fs::path parent = file.parent_path().empty() ? fs::path(".") : file.parent_path();
+    std::error_code ec;
+    if (!fs::exists(parent, ec)) {
+      if (!options.create_directories)
+        throw StorageError(StorageErrorKind::NotFound, file, "directory '" + parent.string() + "' does not exist");
+      fs::create_directories(parent, ec);
+      if (ec) throw StorageError(kind_of_errno(ec.value(), StorageErrorKind::Io), file,
+                                 "cannot create directory '" + parent.string() + "': " + ec.message());
+    }
+    if (::access(parent.c_str(), W_OK) != 0)
+      throw StorageError(StorageErrorKind::ReadOnly, file,
+                         "cannot create the database: directory '" + parent.string() + "' is not writable");
+  } else if (write) {
+    // WAL needs FILE-wal and FILE-shm beside the file.
+    const fs::path parent = file.parent_path().empty() ? fs::path(".") : file.parent_path();
+    if (::access(parent.c_str(), W_OK) != 0)
+      throw StorageError(StorageErrorKind::ReadOnly, file,
+                         "directory '" + parent.string() + "' is not writable (the WAL journal lives beside the file)");
+    if (::access(file.c_str(), W_OK) != 0)
+      throw StorageError(StorageErrorKind::ReadOnly, file, "the file is read-only");
+  }
+
+  int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;
+  flags |= write ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY;
+  if (write && !facts.exists) flags |= SQLITE_OPEN_CREATE;  // never create over an existing file
+  sqlite3* handle = nullptr;
+  const int rc = sqlite3_open_v2(file.c_str(), &handle, flags, nullptr);
+  auto db = std::make_unique<Database>(handle, file, options.busy_timeout_ms);
+  if (rc != SQLITE_OK) db->fail(rc, "opening");
+  sqlite3_extended_result_codes(handle, 1);
+  sqlite3_busy_timeout(handle, options.busy_timeout_ms);
+
+  // Authoritative checks through SQLite (the header may be stale while a WAL holds changes).
+  const auto application_id = static_cast<std::int32_t>(db->query_int("PRAGMA application_id"));
+  const auto version = static_cast<int>(db->query_int("PRAGMA user_version"));
+  if (application_id != 0 && application_id != kApplicationId)
+    throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                       "an SQLite database of another program: application_id " + hex32(application_id) +
+                           ", ALC's is " + hex32(kApplicationId) + "; left untouched");
+  if (application_id == 0) {
+    Statement tables(*db, "SELECT name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' ORDER BY name LIMIT 5");
+    std::string names;
+    while (tables.step()) names += (names.empty() ? "" : ", ") + tables.column_text(0);
+    if (!names.empty())
+      throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                         "an SQLite database of another program (no ALC application_id; holds " + names +
+                             "); left untouched");
+    if (!write) throw StorageError(StorageErrorKind::NotADatabase, file, "an empty SQLite database, not an ALC history");
+    version_found = 0;
+    return db;
+  }
+  if (version > kSchemaVersion)
+    throw StorageError(StorageErrorKind::NewerSchema, file,
+                       "schema version " + std::to_string(version) + " is newer than this alc (" +
+                           std::to_string(kSchemaVersion) + "); use a newer alc; left untouched");
+  if (version < 1)
+    throw StorageError(StorageErrorKind::Corrupt, file, "ALC's application_id but no schema version");
+  version_found = version;
+  return db;
+}
+
+// ---------------------------------------------------------------------------------------------
+std::string encode_f64(const std::vector<double>& values) {
+  std::string bytes(values.size() * sizeof(double), '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    auto bits = std::bit_cast<std::uint64_t>(values[i]);
+    for (int b = 0; b < 8; ++b) bytes[i * 8 + static_cast<std::size_t>(b)] = static_cast<char>((bits >> (8 * b)) & 0xff);
+  }
+  return bytes;
+}
+
+std::vector<double> decode_f64(std::string_view bytes) {
+  std::vector<double> values(bytes.size() / 8);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    std::uint64_t bits = 0;
+    for (int b = 0; b < 8; ++b)
+      bits |= std::uint64_t{static_cast<unsigned char>(bytes[i * 8 + static_cast<std::size_t>(b)])} << (8 * b);
+    values[i] = std::bit_cast<double>(bits);
+  }
+  return values;
+}
+
+std::string format_double(double value) {
+  if (std::isnan(value)) return {};
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, result.ptr);
+}
+
+}  // namespace alc::storage::detail

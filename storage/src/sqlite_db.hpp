@@ -1,0 +1,109 @@
+#pragma once
+// Private to storage/: RAII handles over the SQLite C API, the error mapping, and the one open
+// path that validates a file before SQLite may touch it.
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "storage/storage_error.hpp"
+
+namespace alc::storage::detail {
+
+class Database;
+
+// A prepared statement; values are always bound parameters.
+class Statement {
+ public:
+  Statement(Database& db, std::string_view sql);
+  ~Statement();
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  Statement(Statement&& other) noexcept;
+  Statement& operator=(Statement&&) = delete;
+
+  Statement& bind(int index, double value);
+  Statement& bind(int index, std::int64_t value);
+  Statement& bind(int index, int value) { return bind(index, static_cast<std::int64_t>(value)); }
+  Statement& bind(int index, bool value) { return bind(index, static_cast<std::int64_t>(value ? 1 : 0)); }
+  Statement& bind_text(int index, std::string_view text);
+  Statement& bind_blob(int index, std::string_view bytes);
+  Statement& bind_null(int index);
+  // Steps once: true if a row is available, false when done. Throws StorageError otherwise.
+  bool step();
+  // Steps to completion (for INSERT/UPDATE/DELETE), then resets for reuse.
+  void run();
+  void reset();
+
+  int column_count() const;
+  bool is_null(int column) const;
+  double column_double(int column) const;
+  std::int64_t column_int(int column) const;
+  std::string column_text(int column) const;
+  std::string column_blob(int column) const;
+
+ private:
+  Database* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+class Database {
+ public:
+  Database(sqlite3* handle, std::filesystem::path file, int busy_timeout_ms);
+  ~Database();
+  Database(const Database&) = delete;
+  Database& operator=(const Database&) = delete;
+
+  sqlite3* handle() { return db_; }
+  const std::filesystem::path& file() const { return file_; }
+  int busy_timeout_ms() const { return busy_timeout_ms_; }
+  void exec(std::string_view sql);
+  std::int64_t query_int(std::string_view sql);
+  std::string query_text(std::string_view sql);
+  bool table_exists(std::string_view table);
+  // Throws a StorageError for result code `rc` of an operation described by `what`.
+  [[noreturn]] void fail(int rc, const std::string& what);
+
+ private:
+  sqlite3* db_;
+  std::filesystem::path file_;
+  int busy_timeout_ms_;
+};
+
+enum class OpenMode { Read, Write };
+
+struct OpenOptions {
+  OpenMode mode = OpenMode::Read;
+  int busy_timeout_ms = 5000;
+  bool create_directories = false;
+};
+
+// What the 100-byte SQLite header of an existing file says.
+struct HeaderFacts {
+  bool exists = false;
+  bool empty = false;             // a zero-byte file (SQLite treats it as an empty database)
+  std::int32_t application_id = 0;
+  std::int32_t user_version = 0;
+};
+
+// Reads and judges the header without SQLite: throws NotADatabase, Corrupt (truncated),
+// ForeignDatabase, NewerSchema as the file deserves. Never writes.
+HeaderFacts inspect_header(const std::filesystem::path& file);
+
+// Opens after inspect_header; then checks application_id, user_version and tables through SQLite.
+// Returns the connection and the schema version found (0 = an empty database, Write mode only).
+std::unique_ptr<Database> open_database(const std::filesystem::path& file, const OpenOptions& options,
+                                        int& version_found);
+
+// Vectors of doubles as little-endian IEEE-754 bytes (8 per value), exact.
+std::string encode_f64(const std::vector<double>& values);
+std::vector<double> decode_f64(std::string_view bytes);
+
+// Shortest text that reads back to the same double; "inf", "-inf"; "" for NaN.
+std::string format_double(double value);
+
+}  // namespace alc::storage::detail
