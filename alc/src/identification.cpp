@@ -384,10 +384,11 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     double rss = 0.0;
     sum.residual_max = 0.0;
     const Index first_sample = row_sample.front();
+    const Index last_row_sample = row_sample.back();
     for (Index k = 0; k < n_samples; ++k) {
       const double v = sim.step(history.time_s[static_cast<std::size_t>(k)], history.inputs.row(k).transpose())(0);
       finite = finite && std::isfinite(v);
-      if (k >= first_sample) peak = std::max(peak, std::abs(v));
+      if (k >= first_sample && k <= last_row_sample) peak = std::max(peak, std::abs(v));
       while (next < row_sample.size() && row_sample[next] == k) {
         const double e = y(static_cast<Index>(next)) - v;
         rss += e * e;

@@ -90,3 +90,266 @@ TEST_CASE("identify: FitResult::predictor_state continues like a predictor stepp
   for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) replayed.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose());
   REQUIRE(replayed.state() == fit.predictor_state);
 }
+
+TEST_CASE("identify: parameters lie within their confidence under seeded noise") {
+  constexpr double kSigma = 0.2;       // [µm] probe noise
+  constexpr double kCoverage = 4.0;    // [-] standard errors allowed per parameter
+  for (const std::uint64_t seed : {21u, 22u, 23u}) {
+    std::mt19937_64 rng(seed);
+    const InputHistory h = test::make_history(rng, 2 * 86400.0, 60.0);
+    const ThermalModel truth = test::truth_model(
+        h, {test::output_model("E_X0C", {0, 1}, {grid_tau(1), grid_tau(3)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
+    const auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0), &rng, kSigma);
+    IdentificationOptions o;
+    o.robust_loss = RobustLoss::None;
+    const FitResult fit = identify(h, {"E_X0C"}, probes, o);
+    REQUIRE(fit.usable);
+    const OutputModel& m = fit.model.outputs[0];
+    REQUIRE(m.inputs == std::vector<int>{0, 1});
+    REQUIRE(m.order == 2);
+    const Eigen::VectorXd& sd = fit.outputs[0].parameter_std;
+    for (Eigen::Index i = 0; i < 5; ++i) {
+      INFO("seed " << seed << " parameter " << i << " sd " << sd(i));
+      REQUIRE(std::isfinite(sd(i)));
+      REQUIRE_THAT(m.parameters(i), WithinAbs(truth.outputs[0].parameters(i), kCoverage * sd(i)));
+    }
+    CHECK_THAT(fit.outputs[0].residual_rms, WithinAbs(kSigma, 0.5 * kSigma));
+  }
+}
+
+TEST_CASE("identify: irregular probe times (5 min, then 1-6 h) between 15 s input samples") {
+  constexpr double kTol = 1e-6;  // [µm] noiseless
+  std::mt19937_64 rng(77);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 15.0);
+  const ThermalModel truth = test::truth_model(
+      h, {test::output_model("E_Z0T", {0, 2}, {grid_tau(2), grid_tau(4)}, {-0.7, 5.0, 2.0, -3.0, 1.0})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  std::vector<ProbeRecord> probes;
+  std::uniform_real_distribution<double> hours(1.0, 6.0);
+  for (double t = 300.0; t < h.time_s.back(); t += t < 6.5 * 3600.0 ? 300.0 : 3600.0 * hours(rng)) {
+    ProbeRecord p;
+    p.time_s = t + 7.0;  // between samples: identify uses the sample at or before
+    const auto k = static_cast<Eigen::Index>(std::floor(p.time_s / 15.0));
+    p.errors = y.row(k).transpose();
+    probes.push_back(p);
+  }
+  IdentificationOptions o;
+  o.robust_loss = RobustLoss::None;
+  o.ridge = 0.0;
+  const FitResult fit = identify(h, {"E_Z0T"}, probes, o);
+  INFO(fit.message);
+  REQUIRE(fit.usable);
+  const OutputModel& m = fit.model.outputs[0];
+  REQUIRE(m.inputs == std::vector<int>{0, 2});
+  REQUIRE(m.order == 2);
+  for (Eigen::Index i = 0; i < 5; ++i) REQUIRE_THAT(m.parameters(i), WithinAbs(truth.outputs[0].parameters(i), kTol));
+}
+
+// AIC is left out: its penalty of 2 per parameter picks a higher order now and then (known overfit).
+TEST_CASE("identify: order selection finds the true order (1, 2, 3) with BIC and hold-out") {
+  constexpr double kSigma = 0.05;  // [µm]
+  struct Case {
+    std::vector<double> tau;
+    std::vector<double> parameters;
+  };
+  const std::vector<Case> cases{
+      {{grid_tau(2)}, {0.5, 4.0, 0.003}},
+      {{grid_tau(0), grid_tau(3)}, {0.5, 4.0, -3.0, 0.002, 0.003}},
+      {{grid_tau(0), grid_tau(2), grid_tau(4)}, {0.5, 4.0, -6.0, 3.0, 0.002, -0.004, 0.003}},
+  };
+  for (const StructureCriterion criterion : {StructureCriterion::BIC, StructureCriterion::HoldOut}) {
+    for (std::size_t c = 0; c < cases.size(); ++c) {
+      std::mt19937_64 rng(100 + c);
+      const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0);
+      const ThermalModel truth = test::truth_model(h, {test::output_model("E_X0C", {0, 1}, cases[c].tau, cases[c].parameters)});
+      const auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 12 * 3600.0, 300.0, 1800.0), &rng, kSigma);
+      IdentificationOptions o;
+      o.criterion = criterion;
+      const FitResult fit = identify(h, {"E_X0C"}, probes, o);
+      INFO("criterion " << static_cast<int>(criterion) << " true order " << c + 1 << ": " << fit.message);
+      REQUIRE(fit.usable);
+      CHECK(fit.model.outputs[0].order == static_cast<int>(c + 1));
+      CHECK(fit.model.outputs[0].inputs == std::vector<int>{0, 1});
+    }
+  }
+}
+
+TEST_CASE("identify: 16 temperatures and 80 measurements do not overfit") {
+  constexpr double kSigma = 0.3;  // [µm]
+  std::mt19937_64 rng(2024);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0, 13);  // T_ENV, n_C, FLUID + 13 = 16 inputs
+  REQUIRE(h.input_names.size() == 16);
+  const ThermalModel truth = test::truth_model(
+      h, {test::output_model("E_X0C", {0, 1, 5}, {grid_tau(1), grid_tau(2)}, {1.0, 3.0, 1.0, 0.002, 0.001, 2.0, 1.0})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  // 40 calibration probes every 5 min, then 40 hourly ones
+  auto samples = test::probe_samples(h, 40 * 300.0, 300.0, 3600.0);
+  samples.resize(80);
+  const auto probes = test::probes_at(h, y, samples, &rng, kSigma);
+  REQUIRE(probes.size() == 80);
+  // held out: every sample of the next day after the measurements
+  const auto held_out_rmse = [&](const FitResult& fit) {
+    ModelPredictor p(fit.model);
+    double ss = 0.0;
+    int n = 0;
+    for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) {
+      const double v = p.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose())(0);
+      if (h.time_s[static_cast<std::size_t>(k)] > probes.back().time_s && h.time_s[static_cast<std::size_t>(k)] < probes.back().time_s + 86400.0) {
+        ss += (v - y(k, 0)) * (v - y(k, 0));
+        ++n;
+      }
+    }
+    return std::sqrt(ss / n);
+  };
+  double signal = 0.0;
+  for (Eigen::Index k = 0; k < y.rows(); ++k) signal = std::max(signal, std::abs(y(k, 0)));
+  const FitResult selected = identify(h, {"E_X0C"}, probes, {});
+  INFO(selected.message);
+  REQUIRE(selected.usable);
+  CHECK(selected.model.outputs[0].inputs.size() <= 6);
+  const double rmse_selected = held_out_rmse(selected);
+  INFO("held-out RMSE " << rmse_selected << " µm, signal peak " << signal << " µm, inputs "
+                        << selected.model.outputs[0].inputs.size());
+  REQUIRE(std::isfinite(rmse_selected));
+  REQUIRE(rmse_selected < 0.1 * signal);
+  REQUIRE(rmse_selected < 3.0 * kSigma);
+  IdentificationOptions all;
+  all.select_inputs = false;
+  all.max_order = 1;
+  const FitResult everything = identify(h, {"E_X0C"}, probes, all);
+  REQUIRE(everything.model.outputs[0].inputs.size() == 16);
+  if (everything.usable) CHECK(rmse_selected < held_out_rmse(everything));
+}
+
+TEST_CASE("identify: degenerate data gives no NaN and says why it is not usable") {
+  std::mt19937_64 rng(6);
+  InputHistory h = test::make_history(rng, 86400.0, 60.0);
+  const ThermalModel truth = test::truth_model(h, {test::output_model("E_X0C", {0}, {grid_tau(2)}, {0.5, 4.0})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  const auto samples = test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0);
+  const auto probes = test::probes_at(h, y, samples);
+
+  SECTION("every input constant") {
+    InputHistory flat = h;
+    for (Eigen::Index i = 0; i < flat.inputs.cols(); ++i) flat.inputs.col(i).setConstant(flat.inputs(0, i));
+    const FitResult fit = identify(flat, {"E_X0C"}, probes, {});
+    CHECK_FALSE(fit.usable);
+    CHECK_THAT(fit.message, Catch::Matchers::Contains("constant") && Catch::Matchers::Contains("T_ENV"));
+    CHECK(fit.outputs.at(0).message.find("constant") != std::string::npos);
+  }
+  SECTION("two measurements") {
+    const std::vector<ProbeRecord> two(probes.begin(), probes.begin() + 2);
+    const FitResult fit = identify(h, {"E_X0C"}, two, {});
+    CHECK_FALSE(fit.usable);
+    CHECK_THAT(fit.message, Catch::Matchers::Contains("only 2 measurements"));
+  }
+  SECTION("collinear sensors: finite, usable, predicts like the truth") {
+    InputHistory twin = h;
+    twin.input_names.push_back("T_COPY");
+    twin.inputs.conservativeResize(Eigen::NoChange, 4);
+    twin.inputs.col(3) = 2.0 * h.inputs.col(0).array() + 3.0;  // a second sensor on the same spot
+    IdentificationOptions o;
+    o.select_inputs = false;
+    const FitResult fit = identify(twin, {"E_X0C"}, probes, o);
+    INFO(fit.message);
+    REQUIRE(fit.usable);
+    REQUIRE(fit.model.outputs[0].parameters.allFinite());
+    const Eigen::MatrixXd pred = test::simulate(fit.model, twin);
+    REQUIRE(pred.allFinite());
+    CHECK((pred.col(0) - y.col(0)).cwiseAbs().maxCoeff() < 0.05);
+  }
+  SECTION("a fit that would extrapolate wildly between the probes is rejected") {
+    IdentificationOptions o;
+    o.output_limit_factor = 1.0;  // the truth itself peaks between the probes above the largest probe
+    std::vector<ProbeRecord> sparse;
+    for (std::size_t j = 0; j < probes.size(); j += 12) sparse.push_back(probes[j]);
+    const FitResult fit = identify(h, {"E_X0C"}, sparse, o);
+    if (!fit.usable) CHECK_THAT(fit.message, Catch::Matchers::Contains("beyond the bound"));
+    for (const OutputModel& m : fit.model.outputs) CHECK(m.parameters.allFinite());
+  }
+  SECTION("no history, invalid options, wrong sizes") {
+    CHECK_FALSE(identify({}, {"E_X0C"}, probes, {}).usable);
+    IdentificationOptions bad;
+    bad.max_order = -2;
+    const FitResult fit = identify(h, {"E_X0C"}, probes, bad);
+    CHECK_FALSE(fit.usable);
+    CHECK_THAT(fit.message, Catch::Matchers::Contains("max_order = -2"));
+    CHECK_FALSE(identify(h, {}, probes, {}).usable);
+  }
+}
+
+TEST_CASE("identify: the robust (Huber/Cauchy) fit ignores an outlier probe, least squares does not") {
+  constexpr double kTol = 0.05;  // [µm] on the gain of 4 µm/°C
+  std::mt19937_64 rng(12);
+  const InputHistory h = test::make_history(rng, 86400.0, 60.0);
+  const ThermalModel truth = test::truth_model(h, {test::output_model("E_X0C", {0}, {grid_tau(2)}, {0.5, 4.0})});
+  auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0), &rng, 0.05);
+  probes[40].errors(0) += 40.0;  // a chip on the sphere
+  IdentificationOptions o;
+  o.select_inputs = false;
+  o.max_order = 1;
+  o.pole_grid_size = 1;
+  o.tau_min_s = o.tau_max_s = grid_tau(2);
+  o.robust_loss = RobustLoss::None;
+  const FitResult ls = identify(h, {"E_X0C"}, probes, o);
+  for (const RobustLoss loss : {RobustLoss::Huber, RobustLoss::Cauchy}) {
+    o.robust_loss = loss;
+    const FitResult robust = identify(h, {"E_X0C"}, probes, o);
+    REQUIRE(robust.usable);
+    const auto& s = robust.outputs[0];
+    INFO("loss " << static_cast<int>(loss) << " cost " << s.cost_before << " -> " << s.cost_after);
+    CHECK(s.cost_after < s.cost_before);
+    REQUIRE_THAT(robust.model.outputs[0].parameters(1), WithinAbs(4.0, kTol));
+    CHECK(std::abs(ls.model.outputs[0].parameters(0) - 0.5) > std::abs(robust.model.outputs[0].parameters(0) - 0.5));
+  }
+}
+
+TEST_CASE("identify: window_start_s and forgetting follow a changed machine") {
+  constexpr double kTol = 0.02;  // [µm/°C]
+  std::mt19937_64 rng(31);
+  const InputHistory h = test::make_history(rng, 2 * 86400.0, 60.0);
+  const ThermalModel before = test::truth_model(h, {test::output_model("E_X0C", {0}, {grid_tau(2)}, {0.0, 4.0})});
+  const ThermalModel after = test::truth_model(h, {test::output_model("E_X0C", {0}, {grid_tau(2)}, {0.0, 2.0})});
+  const Eigen::MatrixXd y0 = test::simulate(before, h);
+  const Eigen::MatrixXd y1 = test::simulate(after, h);
+  const double change = 86400.0;
+  Eigen::MatrixXd y = y0;
+  for (Eigen::Index k = 0; k < y.rows(); ++k)
+    if (h.time_s[static_cast<std::size_t>(k)] >= change) y(k, 0) = y1(k, 0);
+  const auto probes = test::probes_at(h, y, test::probe_samples(h, 2 * 86400.0, 600.0, 600.0));
+  IdentificationOptions o;
+  o.select_inputs = false;
+  o.max_order = 1;
+  o.robust_loss = RobustLoss::None;
+  o.window_start_s = change + 3600.0;
+  const FitResult windowed = identify(h, {"E_X0C"}, probes, o);
+  REQUIRE(windowed.usable);
+  // the T_ENV gain of the new machine, whatever the offset after the jump
+  REQUIRE_THAT(windowed.model.outputs[0].parameters(1), WithinAbs(2.0, kTol));
+  REQUIRE(windowed.outputs[0].measurements < static_cast<int>(probes.size()) / 2);
+  o.window_start_s = -kInf;
+  const FitResult all = identify(h, {"E_X0C"}, probes, o);
+  o.forgetting_half_life_s = 3600.0;
+  const FitResult forgetting = identify(h, {"E_X0C"}, probes, o);
+  REQUIRE(forgetting.usable);
+  CHECK(std::abs(forgetting.model.outputs[0].parameters(1) - 2.0) < std::abs(all.model.outputs[0].parameters(1) - 2.0));
+}
+
+TEST_CASE("identify: the output-error route refines time constants that are not on the grid") {
+  std::mt19937_64 rng(55);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0);
+  const ThermalModel truth = test::truth_model(h, {test::output_model("E_X0C", {0, 1}, {2500.0}, {0.3, 4.0, 0.003})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  const auto probes = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 7200.0), &rng, 0.05);
+  IdentificationOptions o;
+  o.max_order = 1;
+  const FitResult fixed = identify(h, {"E_X0C"}, probes, o);
+  o.method = IdentificationMethod::OutputError;
+  const FitResult oe = identify(h, {"E_X0C"}, probes, o);
+  INFO(oe.message << " / " << (oe.outputs.empty() ? "" : oe.outputs[0].message));
+  REQUIRE(oe.usable);
+  REQUIRE(oe.outputs[0].time_constants_s.size() == 1);
+  CHECK_THAT(oe.outputs[0].time_constants_s[0], WithinAbs(2500.0, 100.0));
+  const auto err = [&](const FitResult& f) { return (test::simulate(f.model, h) - y).cwiseAbs().maxCoeff(); };
+  CHECK(err(oe) < err(fixed));
+}
