@@ -11,4 +11,7 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// alc nc: NC commands (JSON lines) to NC code (cli/cmd_nc.cpp).
+void add_nc_command(CLI::App& app);
+
 }  // namespace alc::cli

@@ -1,0 +1,106 @@
+// alc nc: NC commands (JSON lines) in, NC code out, through the safety limits of the machine config.
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+
+#include "commands.hpp"
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/jsonl.hpp"
+#include "nc_interface/machine_config.hpp"
+#include "nc_interface/recorder.hpp"
+#include "nc_interface/transports.hpp"
+
+namespace alc::cli {
+namespace {
+
+struct NcArgs {
+  std::string dialect;
+  std::string machine;
+  std::string input;
+  std::string sink = "stdout";
+  std::string spool_dir;
+  int port = 5007;
+};
+
+void run_nc(const NcArgs& args) {
+  const auto dialect = nc::parse_dialect(args.dialect);
+  if (!dialect) throw UsageError("--dialect must be linuxcnc, fanuc, sinumerik or heidenhain, got '" + args.dialect + "'");
+  if (args.sink == "linuxcncrsh" && *dialect != nc::Dialect::LinuxCNC)
+    throw UsageError("--sink linuxcncrsh needs --dialect linuxcnc");
+  if (args.sink == "spool" && args.spool_dir.empty()) throw UsageError("--sink spool needs --spool-dir DIR");
+  nc::MachineConfig config;
+  if (!args.machine.empty()) {
+    try {
+      config = nc::read_machine_config(args.machine);
+    } catch (const nc::ConfigError& e) {
+      throw UsageError(e.what());
+    }
+  }
+  std::vector<nc::NcCommand> commands;
+  try {
+    if (args.input.empty() || args.input == "-") {
+      commands = nc::read_commands_jsonl(std::cin, "<stdin>");
+    } else {
+      std::ifstream in(args.input, std::ios::binary);
+      if (!in) throw UsageError("cannot open " + args.input);
+      commands = nc::read_commands_jsonl(in, args.input);
+    }
+  } catch (const nc::JsonlError& e) {
+    throw UsageError(e.what());
+  }
+  // Safety first: nothing is written when any command is refused.
+  nc::CommandRecorder recorder(config.limits);
+  std::size_t refused = 0;
+  for (std::size_t i = 0; i < commands.size(); ++i) {
+    const nc::SafetyDecision d = recorder.record(commands[i]);
+    if (d.verdict == nc::SafetyVerdict::Accepted) continue;
+    std::cerr << "alc nc: command " << i + 1 << ": " << d.message << "\n";
+    if (d.verdict == nc::SafetyVerdict::Refused) ++refused;
+  }
+  if (refused > 0) throw std::runtime_error(std::to_string(refused) + " command(s) refused by the safety limits; nothing written");
+  if (args.sink == "stdout") {
+    std::cout << nc::write_program(*dialect, recorder.to_send(), config.nc);
+    std::cout.flush();
+    if (!std::cout) throw std::runtime_error("cannot write to stdout");
+    return;
+  }
+  std::unique_ptr<nc::Sink> sink;
+  if (args.sink == "spool") {
+    sink = std::make_unique<nc::SpoolSink>(args.spool_dir, *dialect, config.nc);
+  } else {
+    nc::LinuxcncrshOptions options;
+    options.port = args.port;
+    sink = std::make_unique<nc::LinuxcncrshSink>(options, config.nc);
+  }
+  nc::CommandQueue queue;
+  for (const nc::NcCommand& c : recorder.to_send()) queue.push(c);
+  const nc::DeliveryReport report = queue.flush(*sink);
+  if (!report.ok()) {
+    // Nothing is lost: the commands not delivered go to stderr as JSON lines, ready to resend.
+    std::cerr << "alc nc: " << report.delivered << " delivered, " << report.pending << " not delivered:\n";
+    for (const nc::NcCommand& c : queue.pending()) std::cerr << nc::to_json_line(c) << "\n";
+    throw std::runtime_error(report.error);
+  }
+  std::cerr << "alc nc: " << report.delivered << " command(s) delivered to " << sink->name() << "\n";
+}
+
+}  // namespace
+
+void add_nc_command(CLI::App& app) {
+  auto args = std::make_shared<NcArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "nc", "Turn NC commands (JSON lines: axis_offsets, probe_interval) into NC code of one dialect.\n"
+            "Reads stdin (or --in), checks the machine's safety limits, writes to stdout, a spool\n"
+            "directory, or a running LinuxCNC (linuxcncrsh, localhost only). See docs/nc.md.");
+  cmd->add_option("--dialect", args->dialect, "linuxcnc, fanuc, sinumerik or heidenhain")->required();
+  cmd->add_option("--machine", args->machine, "machine config (TOML): kinematics, [nc] options, [limits]");
+  cmd->add_option("--in", args->input, "commands file (JSON lines); default stdin");
+  cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
+      ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));
+  cmd->add_option("--spool-dir", args->spool_dir, "directory for --sink spool");
+  cmd->add_option("--port", args->port, "linuxcncrsh port on localhost")->check(CLI::Range(1, 65535));
+  cmd->callback([args] { run_nc(*args); });
+}
+
+}  // namespace alc::cli

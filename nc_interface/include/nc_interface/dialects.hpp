@@ -1,0 +1,55 @@
+#pragma once
+// NC commands as text in one of four dialects. What goes where, and why: docs/nc.md.
+#include <array>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "nc_interface/commands.hpp"
+
+namespace alc::nc {
+
+enum class Dialect { LinuxCNC, Fanuc, Sinumerik, Heidenhain };
+
+// "linuxcnc", "fanuc", "sinumerik", "heidenhain" (exact, lower case).
+std::optional<Dialect> parse_dialect(std::string_view text);
+std::string_view dialect_name(Dialect dialect);
+// File name extension of a program: ".ngc", ".nc", ".mpf", ".h".
+std::string_view program_extension(Dialect dialect);
+
+// The operator's own setting of a work offset. G10 L2 (LinuxCNC, Fanuc) sets the whole work offset,
+// so those writers write base + compensation; Sinumerik (fine offset) and Heidenhain (datum shift)
+// act on top of the base and do not need it.
+struct BaseOffset {
+  double x_mm = 0.0;  // [mm]
+  double y_mm = 0.0;  // [mm]
+  double z_mm = 0.0;  // [mm]
+  double a_deg = 0.0; // [°]
+  double b_deg = 0.0; // [°]
+  double c_deg = 0.0; // [°]
+};
+
+struct DialectOptions {
+  std::array<BaseOffset, 6> base{};            // index 0 = G54 … 5 = G59
+  int linuxcnc_interval_parameter = 3001;      // #31…#5000; persistent only if listed in the var file
+  int fanuc_interval_variable = 500;           // #500…#999 (retained common variables)
+  int fanuc_program_number = 9100;             // O1…O9999
+  int sinumerik_interval_r = 100;              // R0…R999 (retentive)
+  int heidenhain_interval_qr = 100;            // QR0…QR499 (retentive)
+  std::string heidenhain_program_name = "ALCCOMP";  // [A-Z0-9_], 1…16 characters
+};
+
+// Empty if usable, else which option is out of range (names the option and the value).
+std::string validate(const DialectOptions& options);
+// Empty if the command can be written, else what is wrong (field and value).
+std::string validate(const NcCommand& command);
+
+// The NC program for `commands`, in order. Throws std::invalid_argument for invalid options or
+// commands (nothing is written for a bad input), never produces a partial program.
+std::string write_program(Dialect dialect, const std::vector<NcCommand>& commands, const DialectOptions& options = {});
+
+// The LinuxCNC lines to send one by one as MDI commands (no comments, no program end).
+std::vector<std::string> linuxcnc_mdi_lines(const NcCommand& command, const DialectOptions& options = {});
+
+}  // namespace alc::nc

@@ -1,0 +1,22 @@
+#pragma once
+// The one place that formats numbers for NC code.
+#include <string>
+
+namespace alc::nc {
+
+enum class SignStyle {
+  NegativeOnly,  // "0.0123", "-0.0040" (RS274NGC, Fanuc, Sinumerik)
+  Always,        // "+0.0123", "-0.0040", "+0.0000" (Heidenhain Klartext)
+};
+
+// Largest magnitude accepted [mm] or [°]: beyond this a value is a bug, not an offset.
+inline constexpr double kMaxNcMagnitude = 1e6;
+
+// Fixed point with exactly four decimals (the NC resolution 0.0001 mm / 0.0001°), never exponent
+// notation, never "-0.0000". Rounding: the value is scaled by 10^4 in double precision and rounded
+// to the nearest integer, halves away from zero (std::llround), so 0.00005 -> "0.0001",
+// -0.00005 -> "-0.0001", -0.00004 -> "0.0000". Throws std::domain_error for NaN, ±inf or a
+// magnitude above kMaxNcMagnitude.
+std::string format_nc_number(double value, SignStyle sign = SignStyle::NegativeOnly);
+
+}  // namespace alc::nc

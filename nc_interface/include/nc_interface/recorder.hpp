@@ -1,0 +1,58 @@
+#pragma once
+// The entry point for the replay (and anything else that wants to keep what the NC would receive):
+// commands pass the safety gate, and the result is written as commands.jsonl plus the NC program.
+//
+// Intended CLI behaviour (wired by the replay): `alc replay … --nc-out DIR --dialect D
+// [--machine FILE]` collects the replay's commands in order and calls write_replay_nc_output(DIR,
+// D, commands, config.nc, config.limits) once at the end. DIR is created if missing.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "nc_interface/commands.hpp"
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/safety.hpp"
+
+namespace alc::nc {
+
+// Collects commands in order, passing axis offsets through a SafetyGate.
+class CommandRecorder {
+ public:
+  explicit CommandRecorder(SafetyLimits limits = {});
+  // Returns the decision (probe intervals are always accepted once valid; an invalid command of
+  // either kind is refused with the reason in the message).
+  SafetyDecision record(const NcCommand& command);
+  const std::vector<NcCommand>& to_send() const { return to_send_; }            // split steps expanded
+  const std::vector<SafetyDecision>& decisions() const { return decisions_; }   // one per record()
+
+ private:
+  SafetyGate gate_;
+  std::vector<NcCommand> to_send_;
+  std::vector<SafetyDecision> decisions_;
+};
+
+struct NcOutputSummary {
+  std::filesystem::path commands_file;   // DIR/commands.jsonl: the commands as sent, one JSON per line
+  std::filesystem::path program_file;    // DIR/program.<ext>: all of them as one NC program
+  std::filesystem::path safety_file;     // DIR/safety.jsonl: every decision that was not a plain accept
+  std::size_t requested = 0;             // commands given
+  std::size_t sent = 0;                  // commands written (after splitting)
+  std::size_t refused = 0;
+  std::size_t split = 0;
+};
+
+// Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each to a temporary name then
+// renamed. Throws std::invalid_argument for bad options, std::runtime_error when a file cannot be
+// written (the message names the path).
+NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
+                                       const std::vector<NcCommand>& commands, const DialectOptions& options = {},
+                                       const SafetyLimits& limits = {});
+
+// Writes `text` to `path` through a temporary file in the same directory and a rename, so a reader
+// never sees half a file. Throws std::runtime_error naming the path.
+void write_file_atomically(const std::filesystem::path& path, const std::string& text);
+
+// One line of JSON describing a decision: {"verdict":…,"message":…,"requested":{…}}.
+std::string decision_json_line(const SafetyDecision& decision);
+
+}  // namespace alc::nc

@@ -1,0 +1,74 @@
+#pragma once
+// Safety before anything is written: a maximum offset per axis and a maximum change per update
+// (the controllers do the same: Fanuc alarms on large steps, Sinumerik limits the compensation
+// per cycle). Every decision is returned as a value that the caller logs or stores.
+#include <map>
+#include <string>
+#include <vector>
+
+#include "nc_interface/commands.hpp"
+
+namespace alc::nc {
+
+// One limit per axis, > 0.
+struct AxisLimits {
+  double x_mm = 0.1;   // [mm]
+  double y_mm = 0.1;   // [mm]
+  double z_mm = 0.1;   // [mm]
+  double a_deg = 0.01; // [°]
+  double b_deg = 0.01; // [°]
+  double c_deg = 0.01; // [°]
+};
+
+enum class StepAction {
+  Refuse,  // a change above max_step refuses the whole command
+  Split,   // … is sent as equal steps, each within max_step (at most max_split_steps of them)
+};
+
+struct SafetyLimits {
+  AxisLimits max_offset{0.1, 0.1, 0.1, 0.01, 0.01, 0.01};       // |offset| allowed
+  AxisLimits max_step{0.01, 0.01, 0.01, 0.001, 0.001, 0.001};   // |change| per update
+  StepAction on_step_violation = StepAction::Refuse;
+  int max_split_steps = 20;                                      // [-] more steps than this: refuse
+};
+
+// Empty if usable, else which limit is invalid (name and value).
+std::string validate(const SafetyLimits& limits);
+
+enum class SafetyVerdict { Accepted, Split, Refused };
+std::string_view verdict_name(SafetyVerdict verdict);  // "accepted", "split", "refused"
+
+struct LimitViolation {
+  char axis = 'X';          // X Y Z A B C
+  std::string limit;        // "max_offset" or "max_step"
+  double value = 0.0;       // [mm] or [°] the offset or the change asked for
+  double limit_value = 0.0; // [mm] or [°]
+};
+
+struct SafetyDecision {
+  SafetyVerdict verdict = SafetyVerdict::Accepted;
+  AxisOffsets requested;               // what was asked for
+  std::vector<AxisOffsets> to_send;    // empty when refused; one element when accepted
+  std::vector<LimitViolation> violations;
+  std::string message;                 // one line: verdict, and each violation with axis, value, limit
+};
+
+// Check `requested` against the limits, starting from `current` (the offsets in force now).
+// A max_offset violation is always refused (no number of steps makes it safe).
+SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested);
+
+// The stateful gate: remembers the offsets in force per work offset (zero at the start) and
+// decides each command. Probe-interval commands pass (their validity is checked by the writers).
+class SafetyGate {
+ public:
+  explicit SafetyGate(SafetyLimits limits = {});
+  SafetyDecision submit(const AxisOffsets& requested);
+  AxisOffsets current(int work_offset) const;  // zero offsets before the first accepted command
+  const SafetyLimits& limits() const { return limits_; }
+
+ private:
+  SafetyLimits limits_;
+  std::map<int, AxisOffsets> current_;
+};
+
+}  // namespace alc::nc

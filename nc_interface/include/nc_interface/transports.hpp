@@ -1,0 +1,128 @@
+#pragma once
+// Where NC commands go: a spool directory, a stream (stdout), or a running LinuxCNC over
+// linuxcncrsh. A CommandQueue keeps every command until a sink has taken it: a sink that fails
+// leaves the command queued and the failure is reported, nothing is lost.
+#include <array>
+#include <deque>
+#include <filesystem>
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "nc_interface/commands.hpp"
+#include "nc_interface/dialects.hpp"
+
+namespace alc::nc {
+
+// Thrown by a sink that could not deliver; the message says which sink and why.
+struct SinkError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Sink {
+ public:
+  virtual ~Sink() = default;
+  virtual std::string name() const = 0;
+  // Delivers one command completely or throws SinkError.
+  virtual void deliver(const NcCommand& command) = 0;
+};
+
+// Writes each command as a program to `out` (e.g. std::cout).
+class StreamSink : public Sink {
+ public:
+  StreamSink(std::ostream& out, Dialect dialect, DialectOptions options = {});
+  std::string name() const override { return "stream"; }
+  void deliver(const NcCommand& command) override;
+
+ private:
+  std::ostream& out_;
+  Dialect dialect_;
+  DialectOptions options_;
+};
+
+// Writes each command as one program file `alc_NNNNNN<ext>` in `dir` (temporary name, then rename),
+// numbered after the highest number already there, so a reader sees whole files in order.
+class SpoolSink : public Sink {
+ public:
+  SpoolSink(std::filesystem::path dir, Dialect dialect, DialectOptions options = {});
+  std::string name() const override { return "spool " + dir_.string(); }
+  void deliver(const NcCommand& command) override;
+  std::filesystem::path last_file() const { return last_; }
+
+ private:
+  std::filesystem::path dir_;
+  Dialect dialect_;
+  DialectOptions options_;
+  std::filesystem::path last_;
+};
+
+struct LinuxcncrshOptions {
+  std::string host = "127.0.0.1";        // loopback only: "127.0.0.1", "localhost" or "::1"
+  int port = 5007;                       // linuxcncrsh default
+  std::string connect_password = "EMC";  // linuxcncrsh --connectpw default
+  std::string enable_password = "EMCTOO";// linuxcncrsh --enablepw default
+  double timeout_s = 10.0;               // [s] per request (an MDI line waits until done)
+};
+
+// A session with linuxcncrsh (telnet-style text protocol, see `man linuxcncrsh`): hello, echo off,
+// verbose on (so every set is answered with ACK or NAK), enable.
+class LinuxcncrshClient {
+ public:
+  explicit LinuxcncrshClient(LinuxcncrshOptions options = {});
+  ~LinuxcncrshClient();
+  LinuxcncrshClient(const LinuxcncrshClient&) = delete;
+  LinuxcncrshClient& operator=(const LinuxcncrshClient&) = delete;
+
+  void connect();                                   // throws SinkError
+  bool connected() const { return fd_ >= 0; }
+  void close();
+  // Sends one line, returns the first non-empty reply line.
+  std::string request(const std::string& line);
+  // "set WHAT": throws SinkError on NAK (with `get error` text for an MDI line).
+  void set(const std::string& what);
+  // Sends each line as "set mdi LINE" after "set mode mdi" and "set set_wait done".
+  void mdi(const std::vector<std::string>& lines);
+  // Offsets in force (G5x + G92) of X Y Z A B C, [mm] and [°] ("get pos_offset").
+  std::array<double, 6> position_offsets();
+
+ private:
+  std::string read_line();
+  LinuxcncrshOptions options_;
+  int fd_ = -1;
+  std::string buffer_;
+};
+
+// Sends each command as MDI lines to a running LinuxCNC and reads the offsets back: a mismatch
+// with what was sent (> 0.00005 mm or °) is a SinkError.
+class LinuxcncrshSink : public Sink {
+ public:
+  explicit LinuxcncrshSink(LinuxcncrshOptions options = {}, DialectOptions nc = {});
+  std::string name() const override;
+  void deliver(const NcCommand& command) override;
+
+ private:
+  LinuxcncrshOptions options_;
+  DialectOptions nc_;
+  LinuxcncrshClient client_;
+};
+
+struct DeliveryReport {
+  std::size_t delivered = 0;  // commands taken by the sink in this flush
+  std::size_t pending = 0;    // commands still queued
+  std::string error;          // the sink's failure, empty if none
+  bool ok() const { return error.empty(); }
+};
+
+class CommandQueue {
+ public:
+  void push(const NcCommand& command) { pending_.push_back(command); }
+  // Delivers in order; stops at the first failure, which stays at the head of the queue.
+  DeliveryReport flush(Sink& sink);
+  const std::deque<NcCommand>& pending() const { return pending_; }
+
+ private:
+  std::deque<NcCommand> pending_;
+};
+
+}  // namespace alc::nc

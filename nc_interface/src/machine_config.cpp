@@ -1,0 +1,195 @@
+#include "nc_interface/machine_config.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+namespace alc::nc {
+namespace {
+
+std::string node_text(const toml::node* node) {
+  if (!node) return "";
+  std::ostringstream s;
+  node->visit([&s](const auto& n) { s << n; });
+  return s.str();
+}
+
+// Reads one table; remembers which keys were read so that unknown keys can be reported.
+class Table {
+ public:
+  Table(const toml::table* table, std::string path, const std::string& file) : t_(table), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
+    throw ConfigError(file_, full(key), node_text(t_ ? t_->get(key) : nullptr), reason);
+  }
+  std::string full(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  const toml::node* get(const std::string& key) {
+    known_.insert(key);
+    return t_ ? t_->get(key) : nullptr;
+  }
+
+  void number(const std::string& key, double& out) {
+    const toml::node* n = get(key);
+    if (!n) return;
+    if (const auto v = n->value<double>()) out = *v;
+    else fail(key, "not a number");
+    if (!std::isfinite(out)) fail(key, "not a finite number");
+  }
+  void integer(const std::string& key, int& out) {
+    const toml::node* n = get(key);
+    if (!n) return;
+    const auto v = n->as_integer();
+    if (!v || v->get() < -1000000 || v->get() > 1000000) fail(key, "not an integer in ±1e6");
+    out = static_cast<int>(v->get());
+  }
+  std::optional<std::string> text(const std::string& key) {
+    const toml::node* n = get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_string()) fail(key, "not a string");
+    return n->as_string()->get();
+  }
+  void vector(const std::string& key, Eigen::Vector3d& out) {
+    const toml::node* n = get(key);
+    if (!n) return;
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3) fail(key, "not an array of three numbers");
+    for (std::size_t i = 0; i < 3; ++i) {
+      const auto v = a->get(i)->value<double>();
+      if (!v || !std::isfinite(*v)) fail(key, "not an array of three finite numbers");
+      out(static_cast<Eigen::Index>(i)) = *v;
+    }
+  }
+  Table sub(const std::string& key) {
+    const toml::node* n = get(key);
+    if (n && !n->is_table()) fail(key, "not a table");
+    return Table(n ? n->as_table() : nullptr, full(key), file_);
+  }
+  void no_unknown_keys() const {
+    if (!t_) return;
+    for (const auto& [k, v] : *t_)
+      if (!known_.count(std::string(k.str()))) fail(std::string(k.str()), "unknown key");
+  }
+  bool present() const { return t_ != nullptr; }
+  std::vector<std::string> keys() const {
+    std::vector<std::string> out;
+    if (t_) for (const auto& [k, v] : *t_) out.emplace_back(k.str());
+    return out;
+  }
+
+ private:
+  const toml::table* t_;
+  std::string path_;
+  const std::string& file_;
+  std::set<std::string> known_;
+};
+
+void read_axis_limits(Table t, AxisLimits& l) {
+  const std::pair<const char*, double*> keys[] = {{"x_mm", &l.x_mm}, {"y_mm", &l.y_mm}, {"z_mm", &l.z_mm},
+                                                  {"a_deg", &l.a_deg}, {"b_deg", &l.b_deg}, {"c_deg", &l.c_deg}};
+  for (const auto& [key, value] : keys) {
+    t.number(key, *value);
+    if (!(*value > 0.0)) t.fail(key, "must be > 0");
+  }
+  t.no_unknown_keys();
+}
+
+void read_kinematics(Table t, kinematics::MachineChain& chain) {
+  if (const auto c = t.text("chain")) {
+    if (*c == "A-C") chain = kinematics::MachineChain::ac_trunnion();
+    else if (*c == "B-C") chain = kinematics::MachineChain::bc_trunnion();
+    else t.fail("chain", "must be \"A-C\" or \"B-C\"");
+  }
+  t.vector("tilt_direction", chain.tilt.direction);
+  t.vector("tilt_pivot_mm", chain.tilt.pivot_mm);
+  t.vector("table_direction", chain.table.direction);
+  t.vector("table_pivot_mm", chain.table.pivot_mm);
+  t.vector("workpiece_point_mm", chain.workpiece_point_mm);
+  t.no_unknown_keys();
+  if (const std::string e = kinematics::validate(chain); !e.empty()) t.fail("chain", e);
+}
+
+void read_nc(Table t, MachineConfig& config) {
+  if (const auto wo = t.text("work_offset")) {
+    const auto index = parse_work_offset(*wo);
+    if (!index) t.fail("work_offset", "must be one of G54 … G59");
+    config.work_offset = *index;
+  }
+  DialectOptions& o = config.nc;
+  t.integer("linuxcnc_interval_parameter", o.linuxcnc_interval_parameter);
+  t.integer("fanuc_interval_variable", o.fanuc_interval_variable);
+  t.integer("fanuc_program_number", o.fanuc_program_number);
+  t.integer("sinumerik_interval_r", o.sinumerik_interval_r);
+  t.integer("heidenhain_interval_qr", o.heidenhain_interval_qr);
+  if (const auto name = t.text("heidenhain_program_name")) o.heidenhain_program_name = *name;
+  Table base = t.sub("base");
+  for (const std::string& key : base.keys()) {
+    const auto index = parse_work_offset(key);
+    if (!index) base.fail(key, "must be one of G54 … G59");
+    BaseOffset& b = o.base[static_cast<std::size_t>(*index - 1)];
+    Table bt = base.sub(key);
+    bt.number("x_mm", b.x_mm);
+    bt.number("y_mm", b.y_mm);
+    bt.number("z_mm", b.z_mm);
+    bt.number("a_deg", b.a_deg);
+    bt.number("b_deg", b.b_deg);
+    bt.number("c_deg", b.c_deg);
+    bt.no_unknown_keys();
+  }
+  t.no_unknown_keys();
+  if (const std::string e = validate(o); !e.empty()) {
+    const std::string key = e.substr(0, e.find(' '));
+    t.fail(key, e);
+  }
+}
+
+void read_limits(Table t, SafetyLimits& l) {
+  read_axis_limits(t.sub("max_offset"), l.max_offset);
+  read_axis_limits(t.sub("max_step"), l.max_step);
+  if (const auto a = t.text("on_step_violation")) {
+    if (*a == "refuse") l.on_step_violation = StepAction::Refuse;
+    else if (*a == "split") l.on_step_violation = StepAction::Split;
+    else t.fail("on_step_violation", "must be \"refuse\" or \"split\"");
+  }
+  t.integer("max_split_steps", l.max_split_steps);
+  t.no_unknown_keys();
+  if (const std::string e = validate(l); !e.empty()) {
+    // "max_offset of axis X …" -> key max_offset.x_…; name the table and let the message say the axis.
+    t.fail(e.substr(0, e.find(' ')), e);
+  }
+}
+
+}  // namespace
+
+ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_)
+    : std::runtime_error(file_ + ": key '" + key_ + "': " + reason_ + ": value '" + value_ + "'"),
+      file(std::move(file_)), key(std::move(key_)), value(std::move(value_)), reason(reason_) {}
+
+MachineConfig parse_machine_config(const std::string& toml_text, const std::string& source_name) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, source_name);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream where;
+    where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
+    throw ConfigError(source_name, "", "", std::string(e.description()) + " (" + where.str() + ")");
+  }
+  MachineConfig config;
+  Table top(&root, "", source_name);
+  read_kinematics(top.sub("kinematics"), config.chain);
+  read_nc(top.sub("nc"), config);
+  read_limits(top.sub("limits"), config.limits);
+  top.no_unknown_keys();
+  return config;
+}
+
+MachineConfig read_machine_config(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path.string(), "", "", "cannot open the file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_machine_config(text.str(), path.string());
+}
+
+}  // namespace alc::nc

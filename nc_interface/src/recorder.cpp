@@ -1,0 +1,98 @@
+#include "nc_interface/recorder.hpp"
+
+#include <atomic>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <unistd.h>
+
+#include "nc_interface/jsonl.hpp"
+
+namespace alc::nc {
+
+CommandRecorder::CommandRecorder(SafetyLimits limits) : gate_(limits) {
+  if (const std::string e = validate(limits); !e.empty()) throw std::invalid_argument("safety limits: " + e);
+}
+
+SafetyDecision CommandRecorder::record(const NcCommand& command) {
+  SafetyDecision d;
+  if (const std::string e = validate(command); !e.empty()) {
+    d.verdict = SafetyVerdict::Refused;
+    d.message = "refused; invalid command: " + e;
+    if (const auto* o = std::get_if<AxisOffsets>(&command)) d.requested = *o;
+  } else if (const auto* o = std::get_if<AxisOffsets>(&command)) {
+    d = gate_.submit(*o);
+    to_send_.insert(to_send_.end(), d.to_send.begin(), d.to_send.end());
+  } else {
+    d.verdict = SafetyVerdict::Accepted;
+    d.message = "accepted";
+    to_send_.push_back(command);
+  }
+  decisions_.push_back(d);
+  return d;
+}
+
+std::string decision_json_line(const SafetyDecision& d) {
+  nlohmann::ordered_json j;
+  j["verdict"] = std::string(verdict_name(d.verdict));
+  j["message"] = d.message;
+  j["requested"] = nlohmann::ordered_json::parse(to_json_line(d.requested));
+  j["steps"] = d.to_send.size();
+  return j.dump();
+}
+
+void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  static std::atomic<unsigned> counter{0};
+  std::filesystem::path tmp = path;
+  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(tmp, ignored);
+      throw std::runtime_error("cannot write " + tmp.string());
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw std::runtime_error("cannot rename " + tmp.string() + " to " + path.string() + ": " + ec.message());
+  }
+}
+
+NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
+                                       const std::vector<NcCommand>& commands, const DialectOptions& options,
+                                       const SafetyLimits& limits) {
+  if (const std::string e = validate(options); !e.empty()) throw std::invalid_argument("NC options: " + e);
+  CommandRecorder recorder(limits);
+  NcOutputSummary summary;
+  std::ostringstream safety;
+  for (const NcCommand& c : commands) {
+    const SafetyDecision d = recorder.record(c);
+    if (d.verdict == SafetyVerdict::Refused) ++summary.refused;
+    if (d.verdict == SafetyVerdict::Split) ++summary.split;
+    if (d.verdict != SafetyVerdict::Accepted) safety << decision_json_line(d) << "\n";
+  }
+  summary.requested = commands.size();
+  summary.sent = recorder.to_send().size();
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw std::runtime_error("cannot create " + dir.string() + ": " + ec.message());
+  std::ostringstream jsonl;
+  write_commands_jsonl(jsonl, recorder.to_send());
+  summary.commands_file = dir / "commands.jsonl";
+  summary.program_file = dir / ("program" + std::string(program_extension(dialect)));
+  summary.safety_file = dir / "safety.jsonl";
+  const std::string program = write_program(dialect, recorder.to_send(), options);
+  write_file_atomically(summary.commands_file, jsonl.str());
+  write_file_atomically(summary.program_file, program);
+  write_file_atomically(summary.safety_file, safety.str());
+  return summary;
+}
+
+}  // namespace alc::nc

@@ -1,0 +1,238 @@
+#include "nc_interface/transports.hpp"
+
+#include <arpa/inet.h>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <ostream>
+#include <poll.h>
+#include <sstream>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "nc_interface/recorder.hpp"
+
+namespace alc::nc {
+namespace {
+
+bool is_loopback(const std::string& host) { return host == "127.0.0.1" || host == "localhost" || host == "::1"; }
+
+// Text that goes into the linuxcncrsh protocol must be one word without control characters.
+void check_word(const std::string& what, const std::string& text) {
+  if (text.empty()) throw SinkError("linuxcncrsh: " + what + " is empty");
+  for (unsigned char ch : text)
+    if (ch <= ' ' || ch >= 0x7f) throw SinkError("linuxcncrsh: " + what + " must be one printable word");
+}
+
+std::string upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+}  // namespace
+
+StreamSink::StreamSink(std::ostream& out, Dialect dialect, DialectOptions options)
+    : out_(out), dialect_(dialect), options_(std::move(options)) {}
+
+void StreamSink::deliver(const NcCommand& command) {
+  const std::string program = write_program(dialect_, {command}, options_);
+  out_ << program;
+  out_.flush();
+  if (!out_) throw SinkError("stream: write failed");
+}
+
+SpoolSink::SpoolSink(std::filesystem::path dir, Dialect dialect, DialectOptions options)
+    : dir_(std::move(dir)), dialect_(dialect), options_(std::move(options)) {}
+
+void SpoolSink::deliver(const NcCommand& command) {
+  const std::string program = write_program(dialect_, {command}, options_);
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir_, ec)) throw SinkError("spool " + dir_.string() + ": not a directory");
+  long next = 1;
+  for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("alc_", 0) == 0 && name.size() >= 10) next = std::max(next, std::atol(name.substr(4, 6).c_str()) + 1);
+  }
+  if (ec) throw SinkError("spool " + dir_.string() + ": " + ec.message());
+  char name[32];
+  std::snprintf(name, sizeof name, "alc_%06ld", next);
+  const std::filesystem::path path = dir_ / (name + std::string(program_extension(dialect_)));
+  try {
+    write_file_atomically(path, program);
+  } catch (const std::exception& e) {
+    throw SinkError("spool: " + std::string(e.what()));
+  }
+  last_ = path;
+}
+
+LinuxcncrshClient::LinuxcncrshClient(LinuxcncrshOptions options) : options_(std::move(options)) {}
+
+LinuxcncrshClient::~LinuxcncrshClient() { close(); }
+
+void LinuxcncrshClient::close() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  buffer_.clear();
+}
+
+void LinuxcncrshClient::connect() {
+  close();
+  if (!is_loopback(options_.host))
+    throw SinkError("linuxcncrsh: host '" + options_.host + "' refused: only localhost is allowed");
+  if (options_.port < 1 || options_.port > 65535)
+    throw SinkError("linuxcncrsh: port must be 1…65535, got " + std::to_string(options_.port));
+  check_word("connect password", options_.connect_password);
+  check_word("enable password", options_.enable_password);
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  const std::string port = std::to_string(options_.port);
+  if (::getaddrinfo(options_.host == "localhost" ? "127.0.0.1" : options_.host.c_str(), port.c_str(), &hints, &found) != 0)
+    throw SinkError("linuxcncrsh: cannot resolve " + options_.host);
+  const int fd = ::socket(found->ai_family, SOCK_STREAM, 0);
+  const int rc = fd < 0 ? -1 : ::connect(fd, found->ai_addr, found->ai_addrlen);
+  const int err = errno;
+  ::freeaddrinfo(found);
+  if (rc != 0) {
+    if (fd >= 0) ::close(fd);
+    throw SinkError("linuxcncrsh: cannot connect to " + options_.host + ":" + port + ": " + std::strerror(err));
+  }
+  fd_ = fd;
+  const std::string hello = request("hello " + options_.connect_password + " alc 1.0");
+  if (hello.rfind("HELLO ACK", 0) != 0) {
+    close();
+    throw SinkError("linuxcncrsh: hello refused: '" + hello + "'");
+  }
+  request("set echo off");  // answered by the echo of this very line
+  set("verbose on");
+  set("enable " + options_.enable_password);
+}
+
+std::string LinuxcncrshClient::read_line() {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(options_.timeout_s);
+  for (;;) {
+    const auto nl = buffer_.find('\n');
+    if (nl != std::string::npos) {
+      std::string line = buffer_.substr(0, nl);
+      buffer_.erase(0, nl + 1);
+      std::erase(line, '\r');  // replies end in "\r\n" or "\n\r"
+      if (!line.empty()) return line;
+      continue;
+    }
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) throw SinkError("linuxcncrsh: no reply within " + std::to_string(options_.timeout_s) + " s");
+    pollfd p{fd_, POLLIN, 0};
+    const int ready = ::poll(&p, 1, static_cast<int>(left.count()));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready <= 0) continue;
+    char chunk[1024];
+    const ssize_t got = ::recv(fd_, chunk, sizeof chunk, 0);
+    if (got <= 0) {
+      close();
+      throw SinkError("linuxcncrsh: connection closed");
+    }
+    buffer_.append(chunk, static_cast<std::size_t>(got));
+  }
+}
+
+std::string LinuxcncrshClient::request(const std::string& line) {
+  if (fd_ < 0) throw SinkError("linuxcncrsh: not connected");
+  if (line.find_first_of("\r\n") != std::string::npos) throw SinkError("linuxcncrsh: request contains a line break");
+  const std::string wire = line + "\r\n";
+  std::size_t sent = 0;
+  while (sent < wire.size()) {
+    const ssize_t n = ::send(fd_, wire.data() + sent, wire.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) {
+      close();
+      throw SinkError("linuxcncrsh: send failed");
+    }
+    sent += static_cast<std::size_t>(n);
+  }
+  return read_line();
+}
+
+void LinuxcncrshClient::set(const std::string& what) {
+  const std::string reply = request("set " + what);
+  const std::string command = upper(what.substr(0, what.find(' ')));
+  if (reply == "SET " + command + " ACK") return;
+  std::string detail;
+  if (reply == "SET " + command + " NAK") {
+    try {
+      detail = request("get error");
+    } catch (const SinkError&) {
+    }
+  }
+  throw SinkError("linuxcncrsh: 'set " + what + "' answered '" + reply + "'" + (detail.empty() ? "" : " (" + detail + ")"));
+}
+
+void LinuxcncrshClient::mdi(const std::vector<std::string>& lines) {
+  set("mode mdi");
+  set("set_wait done");
+  for (const std::string& line : lines) set("mdi " + line);
+}
+
+std::array<double, 6> LinuxcncrshClient::position_offsets() {
+  const std::string reply = request("get pos_offset");
+  std::istringstream in(reply);
+  std::string tag;
+  std::array<double, 6> out{};
+  in >> tag;
+  for (double& v : out) in >> v;
+  if (tag != "POS_OFFSET" || in.fail()) throw SinkError("linuxcncrsh: unexpected reply to 'get pos_offset': '" + reply + "'");
+  return out;
+}
+
+LinuxcncrshSink::LinuxcncrshSink(LinuxcncrshOptions options, DialectOptions nc)
+    : options_(std::move(options)), nc_(std::move(nc)), client_(options_) {}
+
+std::string LinuxcncrshSink::name() const {
+  return "linuxcncrsh " + options_.host + ":" + std::to_string(options_.port);
+}
+
+void LinuxcncrshSink::deliver(const NcCommand& command) {
+  const std::vector<std::string> lines = linuxcnc_mdi_lines(command, nc_);
+  if (!client_.connected()) client_.connect();
+  try {
+    client_.mdi(lines);
+  } catch (const SinkError&) {
+    client_.close();  // a fresh session next time
+    throw;
+  }
+  const auto* o = std::get_if<AxisOffsets>(&command);
+  if (!o) return;
+  // pos_offset is the offset in force, so this holds when the target work offset is the active one.
+  const BaseOffset& b = nc_.base[static_cast<std::size_t>(o->work_offset - 1)];
+  const std::array<double, 6> want{b.x_mm + o->x_mm, b.y_mm + o->y_mm, b.z_mm + o->z_mm,
+                                   b.a_deg + o->a_deg.value_or(0.0), b.b_deg + o->b_deg.value_or(0.0),
+                                   b.c_deg + o->c_deg};
+  const std::array<double, 6> got = client_.position_offsets();
+  static constexpr char kAxes[] = "XYZABC";
+  for (std::size_t i = 0; i < 6; ++i) {
+    if (i == 3 && !o->a_deg) continue;
+    if (i == 4 && !o->b_deg) continue;
+    if (std::abs(got[i] - std::round(want[i] * 1e4) / 1e4) > 0.5e-4)
+      throw SinkError("linuxcncrsh: read back " + std::string(1, kAxes[i]) + " offset " + std::to_string(got[i]) +
+                      ", sent " + std::to_string(want[i]));
+  }
+}
+
+DeliveryReport CommandQueue::flush(Sink& sink) {
+  DeliveryReport report;
+  while (!pending_.empty()) {
+    try {
+      sink.deliver(pending_.front());
+    } catch (const std::exception& e) {
+      report.error = sink.name() + ": " + e.what();
+      break;
+    }
+    pending_.pop_front();
+    ++report.delivered;
+  }
+  report.pending = pending_.size();
+  return report;
+}
+
+}  // namespace alc::nc
