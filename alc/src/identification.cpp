@@ -174,10 +174,68 @@ std::vector<int> select_poles(const OutputData& d, const std::vector<int>& input
   return best_poles;
 }
 
-struct OutputFit {
-  OutputModel model;
-  OutputFitSummary summary;
+struct OutputSimulation {
+  Eigen::VectorXd at_rows;   // prediction at each measurement sample
+  double peak = 0.0;         // largest |prediction| from the first to the last measurement sample
+  bool finite = true;
+  Eigen::VectorXd end_lags;  // lag states after the last sample (input-major, pole-minor)
 };
+
+// Runs one output model over the history with the arithmetic of ModelPredictor::step (time
+// constants from the stored poles), without clamping.
+OutputSimulation simulate_output(const InputHistory& h, const Eigen::VectorXd& ref, const OutputModel& om,
+                                 double base_step_s, const std::vector<Index>& row_sample) {
+  OutputSimulation out;
+  const auto poles = om.poles.size();
+  const auto lags = static_cast<Index>(om.inputs.size()) * poles;
+  Eigen::VectorXd tau(poles);
+  for (Index k = 0; k < poles; ++k) tau(k) = time_constant_of_pole(om.poles(k), base_step_s);
+  Eigen::VectorXd factor = Eigen::VectorXd::Zero(poles);
+  Eigen::VectorXd x(lags);
+  std::vector<double> held(om.inputs.size());
+  for (std::size_t j = 0; j < om.inputs.size(); ++j) {
+    const double u0 = h.inputs(0, om.inputs[j]);
+    held[j] = std::isfinite(u0) ? u0 : ref(om.inputs[j]);
+    x.segment(static_cast<Index>(j) * poles, poles).setConstant(held[j] - ref(om.inputs[j]));
+  }
+  out.at_rows.resize(static_cast<Index>(row_sample.size()));
+  const Index first = row_sample.empty() ? 0 : row_sample.front();
+  const Index last = row_sample.empty() ? -1 : row_sample.back();
+  double last_t = h.time_s.front();
+  double factor_dt = -1.0;
+  std::size_t next = 0;
+  const auto n = static_cast<Index>(h.time_s.size());
+  for (Index s = 0; s < n; ++s) {
+    if (s > 0) {
+      const double dt = h.time_s[static_cast<std::size_t>(s)] - last_t;
+      if (dt > 0.0) {
+        if (dt != factor_dt) {
+          for (Index k = 0; k < poles; ++k) factor(k) = detail::lag_factor(dt, tau(k));
+          factor_dt = dt;
+        }
+        for (std::size_t j = 0; j < om.inputs.size(); ++j) {
+          const double v = held[j] - ref(om.inputs[j]);
+          for (Index k = 0; k < poles; ++k) {
+            const Index c = static_cast<Index>(j) * poles + k;
+            x(c) = detail::lag_step(x(c), factor(k), v);
+          }
+        }
+        last_t = h.time_s[static_cast<std::size_t>(s)];
+      }
+      for (std::size_t j = 0; j < om.inputs.size(); ++j) {
+        const double u = h.inputs(s, om.inputs[j]);
+        if (std::isfinite(u)) held[j] = u;
+      }
+    }
+    if (s < first || s > last) continue;
+    const double v = om.parameters(0) + om.parameters.tail(lags).dot(x);
+    out.finite = out.finite && std::isfinite(v);
+    out.peak = std::max(out.peak, std::abs(v));
+    while (next < row_sample.size() && row_sample[next] == s) out.at_rows(static_cast<Index>(next++)) = v;
+  }
+  out.end_lags = x;
+  return out;
+}
 
 }  // namespace
 
@@ -257,6 +315,7 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
   model.base_step_s = options.base_step_s;
   result.usable = true;
   std::string messages;
+  std::vector<Eigen::VectorXd> end_lags;  // lag states of each usable output after the last sample
 
   for (Index o = 0; o < n_out; ++o) {
     const std::string& name = output_names[static_cast<std::size_t>(o)];
@@ -370,32 +429,15 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     for (std::size_t k = 0; k < tau.size(); ++k) om.poles(static_cast<Index>(k)) = pole_of_time_constant(tau[k], options.base_step_s);
 
     // Simulate the output over the history: residuals at the probes and the bound between them.
-    ThermalModel single;
-    single.input_names = history.input_names;
-    single.input_reference = reference;
-    single.base_step_s = options.base_step_s;
-    single.outputs.push_back(om);
-    ModelPredictor sim(single);
+    const OutputSimulation sim = simulate_output(history, reference, om, options.base_step_s, row_sample);
     double y_max = 0.0;
     for (Index r = 0; r < m; ++r) y_max = std::max(y_max, std::abs(y(r)));
-    double peak = 0.0;
-    bool finite = true;
-    std::size_t next = 0;
-    double rss = 0.0;
-    sum.residual_max = 0.0;
-    const Index first_sample = row_sample.front();
-    const Index last_row_sample = row_sample.back();
-    for (Index k = 0; k < n_samples; ++k) {
-      const double v = sim.step(history.time_s[static_cast<std::size_t>(k)], history.inputs.row(k).transpose())(0);
-      finite = finite && std::isfinite(v);
-      if (k >= first_sample && k <= last_row_sample) peak = std::max(peak, std::abs(v));
-      while (next < row_sample.size() && row_sample[next] == k) {
-        const double e = y(static_cast<Index>(next)) - v;
-        rss += e * e;
-        sum.residual_max = std::max(sum.residual_max, std::abs(e));
-        ++next;
-      }
-    }
+    const double peak = sim.peak;
+    const bool finite = sim.finite;
+    const Eigen::VectorXd e = y - sim.at_rows;
+    const double rss = e.squaredNorm();
+    sum.residual_max = e.size() ? e.cwiseAbs().maxCoeff() : 0.0;
+    end_lags.push_back(sim.end_lags);
     sum.residual_rms = std::sqrt(rss / static_cast<double>(m));
     sum.order = om.order;
     for (const int i : s.inputs) sum.inputs_chosen.push_back(history.input_names[static_cast<std::size_t>(i)]);
@@ -423,9 +465,26 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
   result.message = result.usable ? "identified " + std::to_string(n_out) + " outputs" : messages;
   result.model = std::move(model);
   if (result.usable) {
-    ModelPredictor p(result.model);
-    for (Index k = 0; k < n_samples; ++k) p.step(history.time_s[static_cast<std::size_t>(k)], history.inputs.row(k).transpose());
-    result.predictor_state = p.state();
+    // The state of ModelPredictor(model) after every sample (layout in thermal_model.hpp), built
+    // from the simulations above instead of a second pass.
+    Index lag_count = 0;
+    for (const Eigen::VectorXd& l : end_lags) lag_count += l.size();
+    Eigen::VectorXd state(2 + n_in + lag_count);
+    state(0) = 1.0;
+    double last_t = history.time_s.front();
+    for (const double t : history.time_s) if (t - last_t > 0.0) last_t = t;
+    state(1) = last_t;
+    for (Index i = 0; i < n_in; ++i) {
+      double held = reference(i);
+      for (Index k = 0; k < n_samples; ++k) if (std::isfinite(history.inputs(k, i))) held = history.inputs(k, i);
+      state(2 + i) = held;
+    }
+    Index at = 2 + n_in;
+    for (const Eigen::VectorXd& l : end_lags) {
+      state.segment(at, l.size()) = l;
+      at += l.size();
+    }
+    result.predictor_state = state;
   }
   return result;
 }

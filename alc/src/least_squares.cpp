@@ -38,8 +38,11 @@ LinearFit solve_weighted_ridge(const Eigen::MatrixXd& phi, const Eigen::VectorXd
   b.head(m) = sw.cwiseProduct(y);
   const double lambda = std::sqrt(ridge * fit.weight_sum);
   for (Eigen::Index j = 0; j < penalised; ++j) a(m + j, unpenalised_columns + j) = lambda;
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
-  const Eigen::VectorXd theta_scaled = qr.solve(b);
+  // With ridge rows every penalised column is independent, so plain Householder QR is safe (and
+  // faster in the structure search); without them column pivoting handles rank deficiency.
+  const Eigen::VectorXd theta_scaled = penalised == p - unpenalised_columns && penalised > 0
+                                           ? Eigen::VectorXd(Eigen::HouseholderQR<Eigen::MatrixXd>(a).solve(b))
+                                           : Eigen::VectorXd(Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(a).solve(b));
   fit.theta = theta_scaled.cwiseQuotient(s);
   const Eigen::VectorXd r = y - phi * fit.theta;
   fit.weighted_rss = (w.array() * r.array().square()).sum();

@@ -54,6 +54,7 @@ ModelPredictor::ModelPredictor(ThermalModel model) : model_(std::move(model)) {
   for (const OutputModel& out : model_.outputs) {
     std::vector<double> taus;
     for (Eigen::Index k = 0; k < out.poles.size(); ++k) taus.push_back(time_constant_of_pole(out.poles(k), model_.base_step_s));
+    factor_.emplace_back(taus.size(), 0.0);
     tau_s_.push_back(std::move(taus));
     lags += static_cast<Eigen::Index>(out.inputs.size()) * out.poles.size();
   }
@@ -67,6 +68,11 @@ Eigen::VectorXd ModelPredictor::step(double time_s, const Eigen::VectorXd& input
   if (model_.outputs.empty()) return {};
   const bool started = state_(kStarted) != 0.0;
   const double dt = started ? time_s - state_(kLastTime) : 0.0;
+  if (dt > 0.0 && dt != factor_dt_s_) {
+    for (std::size_t o = 0; o < tau_s_.size(); ++o)
+      for (std::size_t k = 0; k < tau_s_[o].size(); ++k) factor_[o][k] = detail::lag_factor(dt, tau_s_[o][k]);
+    factor_dt_s_ = dt;
+  }
   Eigen::Index at = kHeld + n_in;
   for (std::size_t o = 0; o < model_.outputs.size(); ++o) {
     const OutputModel& out = model_.outputs[o];
@@ -76,8 +82,7 @@ Eigen::VectorXd ModelPredictor::step(double time_s, const Eigen::VectorXd& input
         if (!started) {
           state_(at) = u_new - model_.input_reference(i);  // steady state
         } else if (dt > 0.0) {
-          state_(at) = detail::lag_step(state_(at), detail::lag_factor(dt, tau_s_[o][k]),
-                                        state_(kHeld + i) - model_.input_reference(i));
+          state_(at) = detail::lag_step(state_(at), factor_[o][k], state_(kHeld + i) - model_.input_reference(i));
         }
       }
     }

@@ -150,6 +150,9 @@ class ModelPredictor {
   // input, per pole]. Everything the predictor needs to continue; the rest is derived from model_.
   Eigen::VectorXd state_;
   std::vector<std::vector<double>> tau_s_;   // [s] per output, per pole (derived from model_)
+  // Lag factors exp(-dt/tau) of the last step spacing: a cache (same values as recomputing them).
+  double factor_dt_s_ = -1.0;
+  std::vector<std::vector<double>> factor_;
 };
 
 }  // namespace alc
