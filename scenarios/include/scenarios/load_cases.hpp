@@ -1,0 +1,136 @@
+#pragma once
+// Built-in load cases: the environment and production that drive the thermal twin, and what
+// the sensors and the touch probe make of it (GTSAM's ScenarioRunner role).
+//
+// A–D: the C-axis twin (thermal_twin.hpp), 8 days at 1-minute sampling, in the spirit of the
+// ALC paper's load cases (seed 004, §3). S16: a recording-like spindle scenario (spindle_twin.hpp)
+// with sixteen temperatures at 15 s and sparse measurements. docs/twin.md has the figures.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "scenarios/scenario.hpp"
+#include "scenarios/thermal_twin.hpp"
+
+namespace alc::scenarios {
+
+struct LoadCaseInfo {
+  std::string name;           // "A"
+  double duration_h = 0.0;    // [h]
+  double step_s = 0.0;        // [s] input sampling
+  std::string description;    // one line
+  std::uint64_t default_seed = 0;
+};
+
+// The load cases A–D, in order.
+const std::vector<LoadCaseInfo>& load_cases();
+// Recording-like scenarios listed apart from A–D (S16).
+const std::vector<LoadCaseInfo>& recording_cases();
+// A case of either list by name, or nullopt.
+std::optional<LoadCaseInfo> find_case(std::string_view name);
+
+// Hall air next to the machine: daily cycle + slow weather + hall-door events.
+struct AmbientParams {
+  double base_C = 21.0;                 // [°C] mean hall temperature
+  double daily_amplitude_K = 1.5;       // [K] half the day-night swing
+  double daily_peak_hour = 15.0;        // [h] warmest time of day
+  double weather_sigma_K = 1.2;         // [K] standard deviation of the weather wander
+  double weather_time_constant_h = 40;  // [h]
+  double door_rate_work_per_h = 0.35;   // [1/h] door openings during working hours
+  double door_rate_off_per_h = 0.04;    // [1/h] at night and on weekends
+  double door_drop_min_K = 1.5;         // [K] drop of a door event at the sensor
+  double door_drop_max_K = 4.0;         // [K]
+  double door_open_min_min = 3.0;       // [min] how long the door stays open
+  double door_open_max_min = 15.0;      // [min]
+  double door_recovery_min_min = 15.0;  // [min] recovery time constant after closing
+  double door_recovery_max_min = 40.0;  // [min]
+  double work_start_h = 6.0;            // [h] hall working hours (Mon–Fri)
+  double work_end_h = 22.0;             // [h]
+};
+
+// C-axis (or spindle) speed profile: jobs of random length at random speeds inside shifts.
+struct ProductionPattern {
+  double job_min_min = 15.0;       // [min] shortest job at one speed
+  double job_max_min = 120.0;      // [min] longest
+  double speed_min_rpm = 100.0;    // [rpm]
+  double speed_max_rpm = 1500.0;   // [rpm]
+  double idle_share = 0.15;        // [-] share of jobs that are standstill (setup, loading)
+  double shift_start_h = 0.0;      // [h] production hours on working days
+  double shift_end_h = 24.0;       // [h]
+  int working_days = 7;            // [-] 7: every day, 5: Mon–Fri (the run starts on a Monday 00:00)
+};
+
+// Cutting-fluid supply (case D): on and off intervals with log-uniform lengths.
+struct FluidPattern {
+  bool enabled = false;
+  double on_min_min = 10.0;    // [min]
+  double on_max_min = 300.0;   // [min]
+  double off_min_min = 20.0;   // [min]
+  double off_max_min = 480.0;  // [min]
+};
+
+// The touch-probe cycle on the precision sphere.
+struct ProbeParams {
+  double interval_s = 300.0;            // [s] a measurement of every error this often
+  double noise_linear_um = 0.4;         // [µm] standard deviation
+  double noise_angular_um_per_m = 1.2;  // [µm/m]
+  double outlier_probability = 0.004;   // [-] per probe cycle: a chip on the sphere
+  double outlier_min_um = 3.0;          // [µm] shift of the measured sphere centre
+  double outlier_max_um = 15.0;         // [µm]
+  double sphere_lever_m = 0.5;          // [m] lever that turns a chip into a tilt error
+};
+
+struct SensorParams {
+  double noise_K = 0.02;       // [K] standard deviation
+  double resolution_K = 0.01;  // [K] quantisation (1/resolution must be an integer)
+};
+
+// Slow drift no fixed model explains (settling joints, creep): one OU process per error.
+struct DriftParams {
+  double sigma_linear_um = 0.8;         // [µm]
+  double sigma_angular_um_per_m = 2.5;  // [µm/m]
+  double time_constant_h = 48.0;        // [h]
+};
+
+// Everything that defines one of the cases A–D.
+struct LoadCaseSpec {
+  LoadCaseInfo info;
+  AmbientParams ambient;
+  ProductionPattern production;
+  FluidPattern fluid;
+  ProbeParams probe;
+  SensorParams sensors;
+  DriftParams drift;
+  ThermalTwinParams twin;  // reference_temperature_C is replaced by the start equilibrium
+};
+
+// The specification of case A, B, C or D; throws std::invalid_argument for another name.
+LoadCaseSpec load_case_spec(std::string_view name);
+
+// What happened to the machine, sample by sample (before any sensor saw it).
+struct LoadProfile {
+  std::vector<double> time_s;         // [s] from 0, uniform
+  std::vector<ThermalLoad> loads;     // loads[k] acts from time_s[k] for one step
+  Eigen::MatrixXd drift;              // samples x errors [µm] / [µm/m]
+};
+
+LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed);
+
+// A simulated case: what ALC may see, and the truth behind it.
+struct SimulatedCase {
+  LoadCaseInfo info;
+  std::uint64_t seed = 0;
+  Scenario scenario;          // sensors (noisy, quantised) and sparse noisy probe measurements
+  TwinTruth truth;            // noiseless node temperatures and true errors at every sample
+  LoadProfile profile;        // the loads that drove the twin
+};
+
+// Simulates case A–D from its spec.
+SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed);
+// Simulates any built-in case (A–D, S16) by name, with its default seed unless one is given.
+// Throws std::invalid_argument for an unknown name.
+SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed = std::nullopt);
+
+}  // namespace alc::scenarios

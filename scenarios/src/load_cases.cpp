@@ -1,0 +1,380 @@
+#include "scenarios/load_cases.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "scenarios/random_processes.hpp"
+#include "scenarios/spindle_twin.hpp"
+
+namespace alc::scenarios {
+
+namespace {
+
+constexpr double kHour = 3600.0;  // [s]
+constexpr double kDay = 24.0 * kHour;
+constexpr double kPi = 3.141592653589793;
+constexpr double kErrorResolution = 0.001;  // [µm], [µm/m] rounding of written errors
+
+// Independent random streams of one simulation (see SeededRandom::derive_seed).
+enum Stream : std::uint64_t { kAmbientStream = 1, kProductionStream, kFluidStream, kDriftStream, kSensorStream, kProbeStream };
+
+SeededRandom stream(std::uint64_t seed, Stream s) { return SeededRandom(SeededRandom::derive_seed(seed, s)); }
+
+// Seconds since Monday 00:00 -> weekday (0 = Monday) and hour of day.
+int weekday_of(double week_s) { return static_cast<int>(std::floor(week_s / kDay)) % 7; }
+double hour_of(double week_s) { return std::fmod(week_s, kDay) / kHour; }
+
+double log_uniform(SeededRandom& random, double lo, double hi) {
+  return std::exp(random.uniform(std::log(lo), std::log(hi)));
+}
+
+// Hall air at each sample; the run starts `start_s` after Monday 00:00.
+std::vector<double> ambient_series(const AmbientParams& p, std::size_t samples, double step_s, double start_s,
+                                   SeededRandom& random) {
+  struct DoorEvent {
+    double open_s, close_s, drop_K, recovery_s;
+  };
+  constexpr double kDoorFall_s = 180.0;  // [s] how fast the air near the door cools while it is open
+  OrnsteinUhlenbeck weather(p.weather_sigma_K, p.weather_time_constant_h * kHour, step_s);
+  std::vector<DoorEvent> doors;
+  std::vector<double> ambient(samples);
+  for (std::size_t k = 0; k < samples; ++k) {
+    const double t = static_cast<double>(k) * step_s;
+    const double week_s = start_s + t;
+    const double h = hour_of(week_s);
+    const bool hall_working = weekday_of(week_s) < 5 && h >= p.work_start_h && h < p.work_end_h;
+    const double rate = (hall_working ? p.door_rate_work_per_h : p.door_rate_off_per_h) / kHour;  // [1/s]
+    if (random.chance(rate * step_s)) {
+      const double open = 60.0 * random.uniform(p.door_open_min_min, p.door_open_max_min);
+      doors.push_back({t, t + open, random.uniform(p.door_drop_min_K, p.door_drop_max_K),
+                       60.0 * random.uniform(p.door_recovery_min_min, p.door_recovery_max_min)});
+    }
+    double deficit = 0.0;  // [K] cooling by open or recently opened doors
+    for (const DoorEvent& d : doors) {
+      if (t < d.open_s) continue;
+      const double at_close = d.drop_K * (1.0 - std::exp(-(std::min(t, d.close_s) - d.open_s) / kDoorFall_s));
+      deficit += t <= d.close_s ? at_close : at_close * std::exp(-(t - d.close_s) / d.recovery_s);
+    }
+    std::erase_if(doors, [&](const DoorEvent& d) { return t > d.close_s + 8.0 * d.recovery_s; });
+    ambient[k] = p.base_C + p.daily_amplitude_K * std::cos(2.0 * kPi * (h - p.daily_peak_hour) / 24.0) +
+                 weather.step(random) - deficit;
+  }
+  return ambient;
+}
+
+// Speed at each sample: jobs of random length and speed inside the shifts, standstill outside.
+std::vector<double> speed_series(const ProductionPattern& p, std::size_t samples, double step_s, double start_s,
+                                 double speed_resolution_rpm, SeededRandom& random) {
+  std::vector<double> speed(samples, 0.0);
+  std::size_t k = 0;
+  while (k < samples) {
+    const double week_s = start_s + static_cast<double>(k) * step_s;
+    const double h = hour_of(week_s);
+    const bool working = weekday_of(week_s) < p.working_days && h >= p.shift_start_h && h < p.shift_end_h;
+    if (!working) {
+      ++k;
+      continue;
+    }
+    const double job_s = 60.0 * random.uniform(p.job_min_min, p.job_max_min);
+    const double rpm = random.chance(p.idle_share)
+                           ? 0.0
+                           : quantise(random.uniform(p.speed_min_rpm, p.speed_max_rpm), speed_resolution_rpm);
+    const double shift_end_s = week_s - h * kHour + p.shift_end_h * kHour;
+    const double end_s = std::min(week_s + job_s, shift_end_s);
+    for (; k < samples && start_s + static_cast<double>(k) * step_s < end_s; ++k) speed[k] = rpm;
+  }
+  return speed;
+}
+
+// Cutting-fluid state at each sample: alternating off / on intervals, starting off.
+std::vector<bool> fluid_series(const FluidPattern& p, std::size_t samples, double step_s, SeededRandom& random) {
+  std::vector<bool> on(samples, false);
+  if (!p.enabled) return on;
+  double t = 0.0;
+  bool state = false;
+  std::size_t k = 0;
+  while (k < samples) {
+    const double length_s = 60.0 * (state ? log_uniform(random, p.on_min_min, p.on_max_min)
+                                          : log_uniform(random, p.off_min_min, p.off_max_min));
+    t += length_s;
+    for (; k < samples && static_cast<double>(k) * step_s < t; ++k) on[k] = state;
+    state = !state;
+  }
+  return on;
+}
+
+// samples x errors of independent OU drifts, each with the sigma of its kind.
+Eigen::MatrixXd drift_series(const std::vector<double>& sigma, double time_constant_h, std::size_t samples,
+                             double step_s, SeededRandom& random) {
+  Eigen::MatrixXd drift(static_cast<Eigen::Index>(samples), static_cast<Eigen::Index>(sigma.size()));
+  for (std::size_t e = 0; e < sigma.size(); ++e) {
+    OrnsteinUhlenbeck process(sigma[e], time_constant_h * kHour, step_s);
+    for (std::size_t k = 0; k < samples; ++k) drift(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(e)) = process.step(random);
+  }
+  return drift;
+}
+
+double sensor_reading(double truth, const SensorParams& s, SeededRandom& random) {
+  return quantise(truth + random.normal(s.noise_K), s.resolution_K);
+}
+
+std::size_t samples_for(const LoadCaseInfo& info) {
+  return static_cast<std::size_t>(std::llround(info.duration_h * kHour / info.step_s)) + 1;
+}
+
+std::vector<double> uniform_times(std::size_t samples, double step_s) {
+  std::vector<double> t(samples);
+  for (std::size_t k = 0; k < samples; ++k) t[k] = static_cast<double>(k) * step_s;
+  return t;
+}
+
+const std::vector<LoadCaseInfo>& case_list() {
+  static const std::vector<LoadCaseInfo> cases = {
+      {"A", 192.0, 60.0, "round the clock: arbitrary C-axis speeds, jobs of 15-120 min, 7 days a week", 101},
+      {"B", 192.0, 60.0, "two shifts Mon-Fri 06-22 h: stops at night and over the weekend", 102},
+      {"C", 192.0, 60.0, "fast-changing small batches: jobs of 2-20 min, frequent setups, Mon-Sat", 103},
+      {"D", 192.0, 60.0, "arbitrary speeds round the clock, cutting fluid on/off for 10 min to 5 h", 104},
+  };
+  return cases;
+}
+
+const std::vector<LoadCaseInfo>& recording_list() {
+  static const std::vector<LoadCaseInfo> cases = {
+      {"S16", 46.0, 15.0,
+       "recording-like spindle run: 16 temperatures, spindle speed, 5 linear errors, sparse probes", 116},
+  };
+  return cases;
+}
+
+// ---- S16: the spindle recording ---------------------------------------------------------------
+
+// A test-bench style program: warm-up steps, a cool-down, random jobs, a night stop, more jobs.
+std::vector<double> spindle_speed_series(std::size_t samples, double step_s, SeededRandom& random) {
+  struct Block {
+    double end_h;
+    double rpm;  // < 0: random jobs
+  };
+  const std::vector<Block> program = {{1.0, 0.0},   {3.5, 3000.0}, {5.5, 6000.0}, {7.0, 0.0},  {9.0, 9000.0},
+                                      {12.0, 0.0},  {20.0, -1.0},  {30.0, 0.0},   {42.0, -1.0}, {46.5, 0.0}};
+  std::vector<double> speed(samples, 0.0);
+  std::size_t k = 0;
+  for (const Block& b : program) {
+    while (k < samples && static_cast<double>(k) * step_s < b.end_h * kHour) {
+      const bool jobs = b.rpm < 0.0;
+      const double rpm = jobs ? (random.chance(0.2) ? 0.0 : quantise(random.uniform(1500.0, 10000.0), 100.0)) : b.rpm;
+      const double end_s = jobs ? std::min(static_cast<double>(k) * step_s + 60.0 * random.uniform(10.0, 60.0), b.end_h * kHour)
+                                : b.end_h * kHour;
+      for (; k < samples && static_cast<double>(k) * step_s < end_s; ++k) speed[k] = rpm;
+    }
+  }
+  return speed;
+}
+
+// Sparse measurement times like a real recording: every 5 min for 6 h, every 30 min to 24 h,
+// then hourly; a few cycles missed.
+bool spindle_probe_due(double t_s, SeededRandom& random) {
+  const long t = std::lround(t_s);
+  const long interval = t <= 6 * 3600 ? 300 : (t <= 24 * 3600 ? 1800 : 3600);
+  if (t % interval != 0) return false;
+  return !random.chance(0.04);
+}
+
+SimulatedCase simulate_spindle_recording(const LoadCaseInfo& info, std::uint64_t seed) {
+  const std::size_t n = samples_for(info);
+  const double start_s = 1 * kDay + 8.0 * kHour;  // Tuesday 08:00
+  AmbientParams hall;
+  hall.base_C = 21.5;
+  hall.daily_amplitude_K = 1.3;
+  hall.door_rate_work_per_h = 0.15;
+  hall.door_drop_max_K = 2.5;
+  auto ambient_random = stream(seed, kAmbientStream);
+  auto production_random = stream(seed, kProductionStream);
+  auto drift_random = stream(seed, kDriftStream);
+  auto sensor_random = stream(seed, kSensorStream);
+  auto probe_random = stream(seed, kProbeStream);
+
+  SimulatedCase run;
+  run.info = info;
+  run.seed = seed;
+  const std::vector<double> ambient = ambient_series(hall, n, info.step_s, start_s, ambient_random);
+  const std::vector<double> speed = spindle_speed_series(n, info.step_s, production_random);
+  run.profile.time_s = uniform_times(n, info.step_s);
+  run.profile.loads.resize(n);
+  for (std::size_t k = 0; k < n; ++k) run.profile.loads[k] = ThermalLoad{ambient[k], speed[k], false};
+  run.profile.drift = drift_series(std::vector<double>(kSpindleErrors, 0.6), 36.0, n, info.step_s, drift_random);
+
+  SpindleTwinParams params;
+  params.reference_temperature_C = ambient[0];
+  const SpindleTwin twin(params, info.step_s);
+  run.truth = twin.simulate(twin.steady_state(ThermalLoad{ambient[0], 0.0, false}), run.profile.loads, run.profile.drift);
+
+  Scenario& s = run.scenario;
+  s.input_names = SpindleTwin::sensor_names();
+  s.input_names.push_back("n_S");
+  s.output_names = SpindleTwin::error_names();
+  s.time_s = run.profile.time_s;
+  s.inputs.resize(static_cast<Eigen::Index>(n), kSpindleSensors + 1);
+  s.outputs.setConstant(static_cast<Eigen::Index>(n), kSpindleErrors, std::numeric_limits<double>::quiet_NaN());
+  const SensorParams sensors;
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto r = static_cast<Eigen::Index>(k);
+    const Eigen::VectorXd t = twin.sensors(run.truth.nodes.row(r).transpose(), ambient[k]);
+    for (int j = 0; j < kSpindleSensors; ++j) s.inputs(r, j) = sensor_reading(t(j), sensors, sensor_random);
+    s.inputs(r, kSpindleSensors) = speed[k];
+    if (!spindle_probe_due(s.time_s[k], probe_random)) continue;
+    const bool chip = probe_random.chance(0.01);
+    const int chip_output = static_cast<int>(probe_random.uniform() * kSpindleErrors);
+    for (int e = 0; e < kSpindleErrors; ++e) {
+      double v = run.truth.errors(r, e) + probe_random.normal(0.5);
+      if (chip && e == chip_output) v += probe_random.uniform(3.0, 10.0);
+      s.outputs(r, e) = quantise(v, kErrorResolution);
+    }
+  }
+  return run;
+}
+
+}  // namespace
+
+const std::vector<LoadCaseInfo>& load_cases() { return case_list(); }
+const std::vector<LoadCaseInfo>& recording_cases() { return recording_list(); }
+
+std::optional<LoadCaseInfo> find_case(std::string_view name) {
+  for (const auto* list : {&case_list(), &recording_list()})
+    for (const LoadCaseInfo& c : *list)
+      if (c.name == name) return c;
+  return std::nullopt;
+}
+
+LoadCaseSpec load_case_spec(std::string_view name) {
+  LoadCaseSpec spec;
+  const auto info = find_case(name);
+  if (!info || info->name == "S16")
+    throw std::invalid_argument("load_case_spec: no load case '" + std::string(name) + "' (A, B, C or D)");
+  spec.info = *info;
+  ProductionPattern& prod = spec.production;
+  AmbientParams& hall = spec.ambient;
+  if (name == "A") {
+    hall.base_C = 21.0;
+    hall.daily_amplitude_K = 1.5;
+  } else if (name == "B") {
+    hall.base_C = 19.5;
+    hall.daily_amplitude_K = 2.0;
+    prod.job_min_min = 10.0;
+    prod.job_max_min = 90.0;
+    prod.idle_share = 0.1;
+    prod.shift_start_h = 6.0;
+    prod.shift_end_h = 22.0;
+    prod.working_days = 5;
+  } else if (name == "C") {
+    hall.base_C = 22.0;
+    hall.daily_amplitude_K = 1.2;
+    prod.job_min_min = 2.0;
+    prod.job_max_min = 20.0;
+    prod.idle_share = 0.3;
+    prod.working_days = 6;
+  } else {  // D
+    hall.base_C = 20.5;
+    hall.daily_amplitude_K = 1.8;
+    prod.job_min_min = 5.0;
+    prod.job_max_min = 60.0;
+    prod.idle_share = 0.2;
+    spec.fluid.enabled = true;
+  }
+  return spec;
+}
+
+LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed) {
+  const std::size_t n = samples_for(spec.info);
+  const double step = spec.info.step_s;
+  auto ambient_random = stream(seed, kAmbientStream);
+  auto production_random = stream(seed, kProductionStream);
+  auto fluid_random = stream(seed, kFluidStream);
+  auto drift_random = stream(seed, kDriftStream);
+  const std::vector<double> ambient = ambient_series(spec.ambient, n, step, 0.0, ambient_random);
+  const std::vector<double> speed = speed_series(spec.production, n, step, 0.0, 10.0, production_random);
+  const std::vector<bool> fluid = fluid_series(spec.fluid, n, step, fluid_random);
+  LoadProfile profile;
+  profile.time_s = uniform_times(n, step);
+  profile.loads.resize(n);
+  for (std::size_t k = 0; k < n; ++k) profile.loads[k] = ThermalLoad{ambient[k], speed[k], fluid[k]};
+  std::vector<double> sigma(kTwinErrors, spec.drift.sigma_linear_um);
+  std::fill(sigma.begin() + 4, sigma.end(), spec.drift.sigma_angular_um_per_m);  // E_A0C, E_B0C, E_C0C
+  profile.drift = drift_series(sigma, spec.drift.time_constant_h, n, step, drift_random);
+  return profile;
+}
+
+SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed) {
+  SimulatedCase run;
+  run.info = spec.info;
+  run.seed = seed;
+  run.profile = make_load_profile(spec, seed);
+  const std::size_t n = run.profile.loads.size();
+
+  // The machine stood still in the hall long enough to be in equilibrium with it at the start,
+  // and its errors are taken against that state (as a recording zeroes them at its start).
+  ThermalTwinParams params = spec.twin;
+  const ThermalLoad at_rest{run.profile.loads.front().ambient_C, 0.0, false};
+  params.reference_temperature_C = at_rest.ambient_C;
+  const ThermalTwin twin(params, spec.info.step_s);
+  run.truth = twin.simulate(twin.steady_state(at_rest), run.profile.loads, run.profile.drift);
+
+  Scenario& s = run.scenario;
+  const bool fluid = spec.fluid.enabled;
+  s.input_names = {"T_ENV", fluid ? "T_CF" : "T_WS", "T_COOL", "n_C"};
+  if (fluid) s.input_names.push_back("CF_on");
+  s.output_names = ThermalTwin::error_names();
+  s.time_s = run.profile.time_s;
+  s.inputs.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(s.input_names.size()));
+  s.outputs.setConstant(static_cast<Eigen::Index>(n), kTwinErrors, std::numeric_limits<double>::quiet_NaN());
+
+  auto sensor_random = stream(seed, kSensorStream);
+  auto probe_random = stream(seed, kProbeStream);
+  const ProbeParams& probe = spec.probe;
+  const auto probe_every = std::llround(probe.interval_s / spec.info.step_s);
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto r = static_cast<Eigen::Index>(k);
+    const ThermalLoad& load = run.profile.loads[k];
+    s.inputs(r, 0) = sensor_reading(load.ambient_C, spec.sensors, sensor_random);
+    s.inputs(r, 1) = sensor_reading(run.truth.nodes(r, fluid ? kFluidTank : kWorkspace), spec.sensors, sensor_random);
+    s.inputs(r, 2) = sensor_reading(run.truth.nodes(r, kCoolant), spec.sensors, sensor_random);
+    s.inputs(r, 3) = load.speed_rpm;
+    if (fluid) s.inputs(r, 4) = load.fluid_on ? 1.0 : 0.0;
+    if (static_cast<long long>(k) % probe_every != 0) continue;
+
+    ErrorVector measured = run.truth.errors.row(r).transpose();
+    for (int e = 0; e < kTwinErrors; ++e)
+      measured(e) += probe_random.normal(e < 4 ? probe.noise_linear_um : probe.noise_angular_um_per_m);
+    if (probe_random.chance(probe.outlier_probability)) {
+      // A chip on the sphere shifts its measured centre along X, Y or Z; as the sphere sits on a
+      // lever above the table, the axis tilt seen in that direction jumps too.
+      const double shift = probe_random.uniform(probe.outlier_min_um, probe.outlier_max_um) *
+                           (probe_random.chance(0.5) ? 1.0 : -1.0);
+      const int axis = static_cast<int>(probe_random.uniform() * 3.0);
+      const double tilt = shift / probe.sphere_lever_m;  // [µm/m]
+      if (axis == 0) {  // X: E_X0C, E_R0T and the tilt about Y, E_B0C
+        measured(0) += shift;
+        measured(3) += shift;
+        measured(5) += tilt;
+      } else if (axis == 1) {  // Y: E_Y0C and the tilt about X, E_A0C
+        measured(1) += shift;
+        measured(4) -= tilt;
+      } else {  // Z: E_Z0T
+        measured(2) += shift;
+      }
+    }
+    for (int e = 0; e < kTwinErrors; ++e) s.outputs(r, e) = quantise(measured(e), kErrorResolution);
+  }
+  return run;
+}
+
+SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed) {
+  const auto info = find_case(name);
+  if (!info) throw std::invalid_argument("unknown case '" + std::string(name) + "' (A, B, C, D or S16)");
+  const std::uint64_t s = seed.value_or(info->default_seed);
+  if (info->name == "S16") return simulate_spindle_recording(*info, s);
+  return simulate_load_case(load_case_spec(name), s);
+}
+
+}  // namespace alc::scenarios
