@@ -76,7 +76,7 @@ NcCommand parse_command_json(const std::string& line_text, const std::string& so
   json object;
   try {
     object = json::parse(line_text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse errors and number overflow (1e400)
     throw JsonlError(source, line, "", line_text, std::string("not JSON (") + e.what() + ")");
   }
   if (!object.is_object()) throw JsonlError(source, line, "", line_text, "not a JSON object");

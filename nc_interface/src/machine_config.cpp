@@ -10,6 +10,7 @@ namespace {
 
 std::string node_text(const toml::node* node) {
   if (!node) return "";
+  if (const auto* text = node->as_string()) return "\"" + text->get() + "\"";
   std::ostringstream s;
   node->visit([&s](const auto& n) { s << n; });
   return s.str();

@@ -13,10 +13,11 @@ enum class SignStyle {
 inline constexpr double kMaxNcMagnitude = 1e6;
 
 // Fixed point with exactly four decimals (the NC resolution 0.0001 mm / 0.0001°), never exponent
-// notation, never "-0.0000". Rounding: the value is scaled by 10^4 in double precision and rounded
-// to the nearest integer, halves away from zero (std::llround), so 0.00005 -> "0.0001",
-// -0.00005 -> "-0.0001", -0.00004 -> "0.0000". Throws std::domain_error for NaN, ±inf or a
-// magnitude above kMaxNcMagnitude.
+// notation, never "-0.0000". Rounding: the shortest decimal text that reads back to the same double
+// (std::to_chars, what the JSON lines show) is rounded at the fourth decimal, halves away from zero:
+// 0.00005 -> "0.0001", -0.00005 -> "-0.0001", 0.00015 -> "0.0002" (although its binary value is
+// a little below), -0.00004 -> "0.0000". Throws std::domain_error for NaN, ±inf or a magnitude
+// above kMaxNcMagnitude.
 std::string format_nc_number(double value, SignStyle sign = SignStyle::NegativeOnly);
 
 }  // namespace alc::nc
