@@ -14,4 +14,7 @@ struct UsageError : std::runtime_error {
 // alc nc: NC commands (JSON lines) to NC code (cli/cmd_nc.cpp).
 void add_nc_command(CLI::App& app);
 
+// alc db: inspect, check, export and benchmark a history database (cli/cmd_db.cpp).
+void add_db_command(CLI::App& app);
+
 }  // namespace alc::cli

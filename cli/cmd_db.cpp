@@ -1,0 +1,139 @@
+// alc db: inspect, check, export and benchmark a history database (storage/, docs/storage.md).
+#include <unistd.h>
+
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "commands.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/history_tools.hpp"
+#include "storage/schema.hpp"
+#include "storage/storage_error.hpp"
+
+namespace alc::cli {
+namespace {
+
+std::string utc_text(double unix_s) {
+  const auto t = static_cast<std::time_t>(unix_s);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+void run_info(const std::string& file) {
+  const storage::HistoryReader reader(file);
+  std::cout << "file: " << file << "\n"
+            << "schema version: " << reader.schema_version() << " (this alc writes " << storage::kSchemaVersion << ")\n";
+  const auto runs = reader.runs();
+  std::cout << "runs: " << runs.size() << "\n";
+  for (const auto& run : runs) {
+    std::cout << "  run " << run.run_id << ": " << run.source << ", " << storage::to_string(run.status)
+              << ", started " << utc_text(run.started_unix_s);
+    if (run.ended_unix_s) std::cout << ", ended " << utc_text(*run.ended_unix_s);
+    std::cout << ", " << run.input_names.size() << " inputs, " << run.output_names.size() << " outputs";
+    const auto span = reader.time_span(run.run_id);
+    if (!span.empty)
+      std::cout << ", time_s " << span.first_s << " .. " << span.last_s << " (" << std::setprecision(4)
+                << (span.last_s - span.first_s) / 3600.0 << std::setprecision(6) << " h)";
+    if (const auto snapshot = reader.latest_snapshot(run.run_id))
+      std::cout << ", latest snapshot at time_s " << snapshot->time_s;
+    std::cout << "\n";
+  }
+  std::cout << "rows per table:\n";
+  for (const auto& count : reader.table_counts())
+    std::cout << "  " << std::left << std::setw(24) << count.table << std::right << count.rows << "\n";
+}
+
+void run_check(const std::string& file) {
+  const auto report = storage::check_history(file);
+  if (report.ok()) {
+    std::cout << file << ": ok\n";
+    return;
+  }
+  for (const auto& problem : report.problems) std::cerr << file << ": " << problem << "\n";
+  throw std::runtime_error(file + ": " + std::to_string(report.problems.size()) + " problem(s) found");
+}
+
+void run_export(const std::string& file, const std::string& table, const std::string& out) {
+  if (out == "-") {
+    storage::export_table_csv(file, table, std::cout);
+    return;
+  }
+  // Written beside the target and renamed, so a reader never sees half a file.
+  const std::filesystem::path target(out);
+  std::filesystem::path temporary = target;
+  temporary += ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
+    if (!stream) throw std::runtime_error("cannot write '" + temporary.string() + "'");
+    try {
+      storage::export_table_csv(file, table, stream);
+      stream.close();
+      if (!stream) throw std::runtime_error("writing '" + temporary.string() + "' failed");
+    } catch (...) {
+      std::filesystem::remove(temporary);
+      throw;
+    }
+  }
+  std::filesystem::rename(temporary, target);
+}
+
+void run_bench(const storage::BenchOptions& options, const std::string& dir) {
+  const auto result = storage::bench_history(dir, options);
+  std::cout << std::fixed << std::setprecision(0) << "records per mode: " << result.records << " ("
+            << options.samples << " input samples of " << options.inputs << " values + as many predictions)\n"
+            << "batched (" << options.batch_size << " per transaction): " << result.batched_records_per_s
+            << " records/s\n"
+            << "unbatched (1 per transaction): " << result.unbatched_records_per_s << " records/s\n"
+            << std::setprecision(1) << "ratio batched/unbatched: " << result.ratio() << "\n";
+}
+
+}  // namespace
+
+void add_db_command(CLI::App& app) {
+  auto* db = app.add_subcommand("db", "Inspect, check, export and benchmark a history database (docs/storage.md)");
+  db->require_subcommand(1);
+
+  auto file = std::make_shared<std::string>();
+  auto table = std::make_shared<std::string>();
+  auto out = std::make_shared<std::string>();
+
+  auto* info = db->add_subcommand("info", "Schema version, runs, rows per table and time span of each run");
+  info->add_option("FILE", *file, "History database")->required();
+  info->callback([file] { run_info(*file); });
+
+  auto* check = db->add_subcommand("check", "PRAGMA integrity_check and the project's consistency checks; "
+                                            "exit 1 and the problems on stderr if any");
+  check->add_option("FILE", *file, "History database")->required();
+  check->callback([file] { run_check(*file); });
+
+  auto* exp = db->add_subcommand("export", "One table as CSV (header line, RFC 4180 quoting, vectors spread "
+                                           "into one column per channel)");
+  exp->add_option("FILE", *file, "History database")->required();
+  exp->add_option("--table", *table, "Table to export")->required()->check(CLI::IsMember(storage::exportable_tables()));
+  exp->add_option("--out", *out, "CSV file to write ('-' for stdout)")->required();
+  exp->callback([file, table, out] { run_export(*file, *table, *out); });
+
+  auto options = std::make_shared<storage::BenchOptions>();
+  auto dir = std::make_shared<std::string>(std::filesystem::temp_directory_path().string());
+  auto* bench = db->add_subcommand("bench", "Records per second written, batched against one transaction per record");
+  bench->add_option("--samples", options->samples, "Input samples per mode (each with a prediction)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  bench->add_option("--inputs", options->inputs, "Values per input sample")->capture_default_str()->check(CLI::PositiveNumber);
+  bench->add_option("--batch", options->batch_size, "Records per transaction in the batched mode")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  bench->add_option("--dir", *dir, "Directory for the temporary database")->capture_default_str();
+  bench->callback([options, dir] { run_bench(*options, *dir); });
+
+  db->add_subcommand("path", "Print the default history database location")->callback([] {
+    std::cout << storage::default_history_path().string() << "\n";
+  });
+}
+
+}  // namespace alc::cli

@@ -1,0 +1,282 @@
+// Hostile and damaged files: each refused with an error naming the file and the cause, and no
+// existing file modified. Migration of a version-1 database to the current schema.
+#include <sys/mount.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include "storage/history_reader.hpp"
+#include "storage/history_tools.hpp"
+#include "storage/schema.hpp"
+#include "storage/storage_error.hpp"
+#include "storage_test_support.hpp"
+
+using namespace alc::storage;
+using alc::storage::test::RawDb;
+using alc::storage::test::ScratchDir;
+
+namespace {
+
+// Runs `open` and returns the StorageError it throws (fails the test if it does not throw one).
+template <class F>
+StorageError error_of(F&& open) {
+  try {
+    open();
+  } catch (const StorageError& e) {
+    return e;
+  }
+  FAIL("no StorageError thrown");
+  throw;
+}
+
+// The file must be byte for byte what it was, and no WAL/SHM created beside it.
+void check_untouched(const std::filesystem::path& file, const std::string& before) {
+  CHECK(test::read_bytes(file) == before);
+  CHECK_FALSE(std::filesystem::exists(file.string() + "-wal"));
+  CHECK_FALSE(std::filesystem::exists(file.string() + "-shm"));
+}
+
+void check_refused(const std::filesystem::path& file, StorageErrorKind kind, const std::string& cause) {
+  const std::string before = test::read_bytes(file);
+  for (int which = 0; which < 3; ++which) {
+    const StorageError e = error_of([&] {
+      if (which == 0) HistoryWriter writer(file);
+      if (which == 1) HistoryReader reader(file);
+      if (which == 2) (void)check_history(file);
+    });
+    INFO(e.what());
+    CHECK(e.kind == kind);
+    CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains(cause));
+    check_untouched(file, before);
+  }
+}
+
+std::filesystem::path filled_history(const ScratchDir& dir, const std::string& name, int samples) {
+  const auto file = dir / name;
+  HistoryWriter writer(file);
+  const RunId id = writer.begin_run(test::small_run());
+  for (int k = 0; k < samples; ++k) writer.add(test::sample_at(id, k));
+  writer.end_run(id, RunStatus::Finished);
+  return file;  // closed: WAL checkpointed into the file and removed
+}
+
+}  // namespace
+
+TEST_CASE("a file that is not a database is refused and left untouched", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "notes.txt";
+  std::string text;
+  for (int i = 0; i < 200; ++i) text += "time_s,T_ENV\n0,20\n";
+  test::write_bytes(file, text);
+  check_refused(file, StorageErrorKind::NotADatabase, "not an SQLite database");
+}
+
+TEST_CASE("a database of another program is refused and left untouched", "[storage]") {
+  ScratchDir dir;
+  SECTION("different application_id") {
+    const auto file = dir / "other.db";
+    {
+      RawDb raw(file);
+      raw.exec("PRAGMA application_id = 1234; CREATE TABLE runs (x); INSERT INTO runs VALUES (1);");
+    }
+    check_refused(file, StorageErrorKind::ForeignDatabase, "application_id 0x000004D2");
+  }
+  SECTION("no application_id but foreign tables") {
+    const auto file = dir / "customers.db";
+    {
+      RawDb raw(file);
+      raw.exec("CREATE TABLE customers (name TEXT); INSERT INTO customers VALUES ('x');");
+    }
+    check_refused(file, StorageErrorKind::ForeignDatabase, "holds customers");
+  }
+}
+
+TEST_CASE("a newer schema version is refused", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "newer.sqlite", 5);
+  {
+    RawDb raw(file);
+    raw.exec("PRAGMA journal_mode = DELETE; PRAGMA user_version = 99;");
+  }
+  check_refused(file, StorageErrorKind::NewerSchema, "schema version 99 is newer than this alc");
+}
+
+TEST_CASE("a truncated or corrupted file is refused or reported", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "truncated.sqlite", 3000);
+  const std::string full = test::read_bytes(file);
+  REQUIRE(full.size() > 16 * 4096);
+  SECTION("cut at half its pages") {
+    test::write_bytes(file, full.substr(0, full.size() / 2 / 4096 * 4096));
+    check_refused(file, StorageErrorKind::Corrupt, "truncated");
+  }
+  SECTION("cut inside a page") {
+    test::write_bytes(file, full.substr(0, full.size() - 1000));
+    check_refused(file, StorageErrorKind::Corrupt, "not a whole number");
+  }
+  SECTION("cut inside the header") {
+    test::write_bytes(file, full.substr(0, 50));
+    check_refused(file, StorageErrorKind::Corrupt, "shorter than the 100-byte SQLite header");
+  }
+  SECTION("pages overwritten with garbage") {
+    std::string damaged = full;
+    for (std::size_t i = 4096; i < damaged.size(); i += 7) damaged[i] = static_cast<char>(i * 31);
+    test::write_bytes(file, damaged);
+    try {
+      const CheckReport report = check_history(file);
+      CHECK_FALSE(report.ok());
+    } catch (const StorageError& e) {
+      CHECK(e.kind == StorageErrorKind::Corrupt);
+      CHECK_THAT(e.what(), Catch::Contains(file.string()));
+    }
+  }
+}
+
+TEST_CASE("a locked database gives a locked error after the busy timeout", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "locked.sqlite", 5);
+  RawDb other(file);
+  REQUIRE(other.exec("PRAGMA journal_mode = WAL; BEGIN IMMEDIATE; INSERT INTO runs (source, config_json, "
+                     "software_version, started_unix_s, status) VALUES ('x', '{}', 'x', 0, 'running');") == SQLITE_OK);
+  WriterOptions options;
+  options.busy_timeout_ms = 100;
+  const StorageError e = error_of([&] { HistoryWriter writer(file, options); });
+  CHECK(e.kind == StorageErrorKind::Locked);
+  CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains("busy timeout of 100 ms"));
+  // A reader is not blocked by a writer (WAL).
+  CHECK(HistoryReader(file).runs().size() == 1);
+  other.exec("ROLLBACK");
+  CHECK_NOTHROW(HistoryWriter(file, options));
+}
+
+TEST_CASE("a read-only directory or file gives a read-only error", "[storage]") {
+  ScratchDir dir;
+  const auto locked_dir = dir.path / "ro";
+  std::filesystem::create_directories(locked_dir);
+  const auto existing = filled_history(dir, "ro/existing.sqlite", 5);
+  std::filesystem::permissions(locked_dir, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec |
+                                               std::filesystem::perms::group_read | std::filesystem::perms::group_exec |
+                                               std::filesystem::perms::others_read | std::filesystem::perms::others_exec);
+  const std::string before = test::read_bytes(existing);
+  // Root ignores permissions: run the attempts as `nobody` in a child process.
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    if (geteuid() == 0 && (setgid(65534) != 0 || setuid(65534) != 0)) _exit(10);
+    int code = 0;
+    try {
+      HistoryWriter writer(locked_dir / "new.sqlite");
+      code |= 1;
+    } catch (const StorageError& e) {
+      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("new.sqlite") == std::string::npos) code |= 2;
+    }
+    try {
+      HistoryWriter writer(existing);
+      code |= 4;
+    } catch (const StorageError& e) {
+      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("not writable") == std::string::npos) code |= 8;
+    }
+    _exit(code);
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK_FALSE(std::filesystem::exists(locked_dir / "new.sqlite"));
+  CHECK(test::read_bytes(existing) == before);
+}
+
+TEST_CASE("a full disk stops the writer with a disk-full error and keeps what was committed", "[storage]") {
+  ScratchDir dir;
+  auto fill = [](const std::filesystem::path& file, WriterOptions options) {
+    options.batch_size = 50;
+    std::int64_t committed = 0;
+    std::int64_t k = 0;
+    RunId id = 0;
+    StorageError error = error_of([&] {
+      HistoryWriter writer(file, options);
+      id = writer.begin_run(test::small_run());
+      for (;; ++k) {
+        writer.add(test::sample_at(id, k));
+        if (writer.pending() == 0) committed = k + 1;
+      }
+    });
+    CHECK(error.kind == StorageErrorKind::DiskFull);
+    CHECK_THAT(error.what(), Catch::Contains(file.string()) && Catch::Contains("disk full") &&
+                                 Catch::Contains("were not stored"));
+    INFO(error.what());
+    CHECK(committed > 0);
+    CHECK(check_history(file).ok());
+    CHECK(static_cast<std::int64_t>(HistoryReader(file).input_samples(id).size()) >= committed);
+  };
+  SECTION("max_page_count cap (SQLITE_FULL)") {
+    WriterOptions options;
+    options.max_page_count = 40;
+    fill(dir / "capped.sqlite", options);
+  }
+  SECTION("a real 256 KiB tmpfs (ENOSPC), when this process may mount") {
+    const auto mount_point = dir.path / "tiny";
+    std::filesystem::create_directories(mount_point);
+    if (::mount("tmpfs", mount_point.c_str(), "tmpfs", 0, "size=256k") != 0) {
+      WARN("cannot mount a tmpfs here (not root?): only the max_page_count case ran");
+      return;
+    }
+    struct Unmount {
+      std::filesystem::path path;
+      ~Unmount() { ::umount(path.c_str()); }
+    } unmount{mount_point};
+    fill(mount_point / "full.sqlite", WriterOptions{});
+  }
+}
+
+TEST_CASE("empty and missing files", "[storage]") {
+  ScratchDir dir;
+  CHECK(error_of([&] { HistoryReader reader(dir / "missing.sqlite"); }).kind == StorageErrorKind::NotFound);
+  CHECK_THAT(error_of([&] { HistoryWriter writer(dir / "no/such/dir/h.sqlite"); }).what(),
+             Catch::Contains("does not exist"));
+  WriterOptions create;
+  create.create_directories = true;
+  CHECK_NOTHROW(HistoryWriter(dir / "made/for/you/h.sqlite", create));
+  const auto empty = dir / "empty.sqlite";
+  test::write_bytes(empty, "");
+  CHECK(error_of([&] { HistoryReader reader(empty); }).kind == StorageErrorKind::NotADatabase);
+  CHECK_NOTHROW(HistoryWriter(empty));  // a zero-byte file holds nothing to lose: it becomes a history
+  CHECK(HistoryReader(empty).schema_version() == kSchemaVersion);
+}
+
+TEST_CASE("a version-1 database is migrated to the current schema with its data", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "v1.sqlite";
+  {
+    // Exactly what version 1 created, with a run written in version-1 form.
+    RawDb raw(file);
+    REQUIRE(raw.exec(std::string(migration_sql(1))) == SQLITE_OK);
+    REQUIRE(raw.exec("PRAGMA application_id = " + std::to_string(kApplicationId) + "; PRAGMA user_version = 1;") ==
+            SQLITE_OK);
+    REQUIRE(raw.exec("INSERT INTO runs VALUES (1, 'case B', '{\"cp_h\":12}', 'alc 0.0.9', 1.7e9, NULL, 'stopped');"
+                     "INSERT INTO run_channels VALUES (1, 'input', 0, 'T_ENV'), (1, 'output', 0, 'E_X0C');"
+                     "INSERT INTO input_samples VALUES (1, 0, 0.0, X'0000000000003440'), (1, 1, 60.0, X'0000000000803440');"
+                     "INSERT INTO controller_snapshots VALUES (1, 1, 60.0, 2, 'test/1', 1, '{\"k\":1}');") == SQLITE_OK);
+  }
+  {
+    const HistoryReader reader(file);  // read as it is, without migrating
+    CHECK(reader.schema_version() == 1);
+    CHECK(reader.nc_commands(1).empty());
+    CHECK(reader.input_samples(1).size() == 2);
+  }
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == 1);
+  {
+    HistoryWriter writer(file);
+    writer.add(NcCommandRecord{1, 120.0, "offsets", "G10 L2 P1 X0.001", "stdout", true, ""});
+  }
+  const HistoryReader reader(file);
+  CHECK(reader.schema_version() == kSchemaVersion);
+  const auto samples = reader.input_samples(1);
+  REQUIRE(samples.size() == 2);
+  CHECK(samples[1].values == std::vector<double>{20.5});  // 0x4034800000000000
+  CHECK(reader.run(1)->source == "case B");
+  CHECK(reader.latest_snapshot(1)->payload == R"({"k":1})");
+  CHECK(reader.nc_commands(1).size() == 1);
+  CHECK(check_history(file).ok());
+}

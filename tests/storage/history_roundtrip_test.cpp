@@ -1,0 +1,307 @@
+// Every record type written and read back exactly; batching; resume; model JSON; CSV export.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "storage/history_reader.hpp"
+#include "storage/history_tools.hpp"
+#include "storage/model_json.hpp"
+#include "storage/schema.hpp"
+#include "storage/storage_error.hpp"
+#include "storage_test_support.hpp"
+
+using namespace alc::storage;
+using alc::storage::test::RawDb;
+using alc::storage::test::ScratchDir;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Bitwise equality so NaN == NaN and -0.0 != 0.0: storage must keep every double exactly.
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](double x, double y) {
+           return std::bit_cast<std::uint64_t>(x) == std::bit_cast<std::uint64_t>(y);
+         });
+}
+
+}  // namespace
+
+TEST_CASE("every record type round-trips bit for bit", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "history.sqlite";
+  const RunRecord run_in = test::small_run();
+
+  InputSampleRecord sample{0, 0, 0.0, {0.1, -0.0, 1e-300}};
+  ProbeMeasurementRecord probe{0, 300.0, "CP", {1.25, kNaN}, {-0.5, 3.0000000000000004}, 0.75};
+  PredictionRecord prediction{0, 360.0, {2.0 / 3.0, -1e-12}, {0.001, 123456.789}};
+  ModelParameterSetRecord model;
+  model.time_s = 23400.0;
+  model.reason = "end of CP";
+  model.window_start_s = -kInf;
+  model.window_end_s = 23400.0;
+  model.order = 2;
+  model.inputs_chosen = {"T_ENV", "n_C"};
+  model.usable = true;
+  model.adopted = true;
+  model.fit_summary_json = R"({"outputs":[{"name":"E_X0C","residual_rms":0.4}]})";
+  model.model_json = R"({"parameters":[1,2,3]})";
+  PhaseChangeRecord phase{0, 23400.0, "CP", "PostCP", "CP of 6.5 h complete"};
+  ProbeIntervalChangeRecord interval{0, 23400.0, kInf, "Post-CP interval Inf"};
+  NcCommandRecord nc{0, 23460.0, "offsets", "G10 L2 P1 X0.0012\n", "file:/tmp/out.nc", false, "sink full, \"retry\""};
+  ControllerSnapshot snapshot{0, 23460.0, 391, "alc.controller/1", false, std::string("\0\x01\xff binary", 10)};
+
+  RunId id = 0;
+  {
+    HistoryWriter writer(file);
+    id = writer.begin_run(run_in);
+    sample.run_id = probe.run_id = prediction.run_id = model.run_id = phase.run_id = interval.run_id = nc.run_id =
+        snapshot.run_id = id;
+    writer.add(sample);
+    writer.add(probe);
+    writer.add(prediction);
+    writer.add(model);
+    writer.add(phase);
+    writer.add(interval);
+    writer.add(nc);
+    writer.save_snapshot(snapshot);
+    writer.end_run(id, RunStatus::Finished);
+  }
+
+  const HistoryReader reader(file);
+  CHECK(reader.schema_version() == kSchemaVersion);
+  const auto runs = reader.runs();
+  REQUIRE(runs.size() == 1);
+  const RunRecord& run = runs.front();
+  CHECK(run.run_id == id);
+  CHECK(run.source == run_in.source);
+  CHECK(run.config_json == run_in.config_json);
+  CHECK(run.software_version == run_in.software_version);
+  CHECK(run.started_unix_s > 1.6e9);
+  REQUIRE(run.ended_unix_s);
+  CHECK(*run.ended_unix_s >= run.started_unix_s);
+  CHECK(run.status == RunStatus::Finished);
+  CHECK(run.input_names == run_in.input_names);
+  CHECK(run.output_names == run_in.output_names);
+  CHECK(run.offset_names == run_in.offset_names);
+
+  const auto samples = reader.input_samples(id);
+  REQUIRE(samples.size() == 1);
+  CHECK(samples[0].sample_index == 0);
+  CHECK(same_bits(samples[0].values, sample.values));
+
+  const auto probes = reader.probe_measurements(id);
+  REQUIRE(probes.size() == 1);
+  CHECK(probes[0].time_s == probe.time_s);
+  CHECK(probes[0].phase == "CP");
+  CHECK(same_bits(probes[0].measured, probe.measured));
+  CHECK(same_bits(probes[0].compensation, probe.compensation));
+  CHECK(probes[0].weight == 0.75);
+
+  const auto predictions = reader.predictions(id);
+  REQUIRE(predictions.size() == 1);
+  CHECK(same_bits(predictions[0].predicted, prediction.predicted));
+  CHECK(same_bits(predictions[0].offsets, prediction.offsets));
+
+  const auto models = reader.model_parameter_sets(id);
+  REQUIRE(models.size() == 1);
+  CHECK(models[0].reason == model.reason);
+  CHECK(models[0].window_start_s == -kInf);
+  CHECK(models[0].window_end_s == 23400.0);
+  CHECK(models[0].order == 2);
+  CHECK(models[0].inputs_chosen == model.inputs_chosen);
+  CHECK(models[0].usable);
+  CHECK(models[0].adopted);
+  CHECK(models[0].fit_summary_json == model.fit_summary_json);
+  CHECK(models[0].model_json == model.model_json);
+
+  const auto phases = reader.phase_changes(id);
+  REQUIRE(phases.size() == 1);
+  CHECK(phases[0].from_phase == "CP");
+  CHECK(phases[0].to_phase == "PostCP");
+  CHECK(phases[0].reason == phase.reason);
+
+  const auto intervals = reader.probe_interval_changes(id);
+  REQUIRE(intervals.size() == 1);
+  CHECK(intervals[0].interval_s == kInf);
+
+  const auto commands = reader.nc_commands(id);
+  REQUIRE(commands.size() == 1);
+  CHECK(commands[0].text == nc.text);
+  CHECK(commands[0].sink == nc.sink);
+  CHECK_FALSE(commands[0].accepted);
+  CHECK(commands[0].message == nc.message);
+
+  const auto latest = reader.latest_snapshot(id);
+  REQUIRE(latest);
+  CHECK(latest->payload == snapshot.payload);  // NUL and 0xff bytes kept
+  CHECK(latest->format == snapshot.format);
+  CHECK(latest->next_sample_index == 391);
+  CHECK(latest->time_s == 23460.0);
+
+  const auto span = reader.time_span(id);
+  CHECK_FALSE(span.empty);
+  CHECK(span.first_s == 0.0);
+  CHECK(span.last_s == 23460.0);
+  CHECK(check_history(file).ok());
+}
+
+TEST_CASE("records that break the contract are refused with the reason", "[storage]") {
+  ScratchDir dir;
+  HistoryWriter writer(dir / "h.sqlite");
+  const RunId id = writer.begin_run(test::small_run());
+  auto sample = test::sample_at(id, 0);
+  sample.values.pop_back();
+  CHECK_THROWS_WITH(writer.add(sample), Catch::Contains("values has 2 values, the run has 3 channels"));
+  CHECK_THROWS_WITH(writer.add(test::sample_at(id + 7, 0)), Catch::Contains("run 8 does not exist"));
+  auto bad_time = test::sample_at(id, 0);
+  bad_time.time_s = kNaN;
+  CHECK_THROWS_WITH(writer.add(bad_time), Catch::Contains("time_s must be finite"));
+  RunRecord bad_config = test::small_run();
+  bad_config.config_json = "{not json";
+  CHECK_THROWS_WITH(writer.begin_run(bad_config), Catch::Contains("config_json") && Catch::Contains("not valid JSON"));
+  writer.add(test::sample_at(id, 0));
+  // A duplicate sample index is rejected without losing the rest of the batch.
+  CHECK_THROWS_AS(writer.add(test::sample_at(id, 0)), StorageError);
+  writer.add(test::sample_at(id, 1));
+  writer.commit();
+  CHECK(HistoryReader(dir / "h.sqlite").input_samples(id).size() == 2);
+}
+
+TEST_CASE("records are committed one transaction per batch", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "batched.sqlite";
+  WriterOptions options;
+  options.batch_size = 100;
+  HistoryWriter writer(file, options);
+  const RunId id = writer.begin_run(test::small_run());
+  const auto commits_after_begin = writer.transactions_committed();
+  RawDb peek(file);
+  for (std::int64_t k = 0; k < 99; ++k) writer.add(test::sample_at(id, k));
+  CHECK(writer.pending() == 99);
+  CHECK(peek.scalar("SELECT COUNT(*) FROM input_samples") == 0);  // nothing visible before the batch ends
+  writer.add(test::sample_at(id, 99));
+  CHECK(writer.pending() == 0);
+  CHECK(peek.scalar("SELECT COUNT(*) FROM input_samples") == 100);
+  for (std::int64_t k = 100; k < 1050; ++k) writer.add(test::sample_at(id, k));
+  CHECK(writer.transactions_committed() - commits_after_begin == 10);  // 1050 records: 10 full batches
+  CHECK(peek.scalar("SELECT COUNT(*) FROM input_samples") == 1000);
+  writer.commit();  // the caller's commit before acting on what was accepted
+  CHECK(writer.transactions_committed() - commits_after_begin == 11);
+  CHECK(peek.scalar("SELECT COUNT(*) FROM input_samples") == 1050);
+  writer.commit();  // nothing pending: no empty transaction
+  CHECK(writer.transactions_committed() - commits_after_begin == 11);
+}
+
+TEST_CASE("resume returns the latest snapshot and drops what was written after it", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "resume.sqlite";
+  RunId id = 0;
+  {
+    HistoryWriter writer(file);
+    id = writer.begin_run(test::small_run());
+    for (std::int64_t k = 0; k < 30; ++k) {
+      writer.add(test::sample_at(id, k));
+      writer.add(PredictionRecord{id, 60.0 * static_cast<double>(k), {1.0, 2.0}, {3.0, 4.0}});
+      if (k == 9 || k == 19) writer.save_snapshot({id, 60.0 * static_cast<double>(k), k + 1, "test/1", true,
+                                                   R"({"k":)" + std::to_string(k) + "}"});
+    }
+    writer.end_run(id, RunStatus::Stopped);  // e.g. --stop-at: records after the snapshot exist
+  }
+  {
+    HistoryWriter writer(file);
+    const ResumePoint point = writer.resume_run(id);
+    CHECK(point.snapshot.next_sample_index == 20);
+    CHECK(point.snapshot.payload == R"({"k":19})");
+    CHECK(point.run.status == RunStatus::Running);
+    CHECK(point.run.input_names == test::small_run().input_names);
+    const HistoryReader reader(file);
+    CHECK(reader.input_samples(id).size() == 20);
+    CHECK(reader.predictions(id).size() == 20);
+    CHECK(reader.snapshots(id).size() == 2);
+    CHECK(reader.latest_unfinished_run()->run_id == id);
+    // The resumed run continues and finishes; the history reads as one uninterrupted run.
+    for (std::int64_t k = 20; k < 30; ++k) writer.add(test::sample_at(id, k));
+    writer.end_run(id, RunStatus::Finished);
+  }
+  const HistoryReader reader(file);
+  CHECK(reader.input_samples(id).size() == 30);
+  CHECK_FALSE(reader.latest_unfinished_run());
+  CHECK(check_history(file).ok());
+
+  HistoryWriter writer(file);
+  const RunId empty = writer.begin_run(test::small_run());
+  CHECK_THROWS_WITH(writer.resume_run(empty), Catch::Contains("no controller snapshot"));
+}
+
+TEST_CASE("thermal model JSON is exact and the parameter-set record summarises the fit", "[storage]") {
+  alc::FitResult fit;
+  fit.usable = true;
+  fit.message = "ok";
+  fit.model.input_names = {"T_ENV", "T_FLUID"};
+  fit.model.input_reference = Eigen::VectorXd::Constant(2, 0.1);
+  fit.model.base_step_s = 60.0;
+  alc::OutputModel out;
+  out.name = "E_X0C";
+  out.order = 2;
+  out.inputs = {0, 1};
+  out.parameters = Eigen::VectorXd(3);
+  out.parameters << 1.0 / 3.0, -2.5e-17, kNaN;
+  out.poles = Eigen::VectorXd::Constant(1, kInf);
+  fit.model.outputs.push_back(out);
+  alc::OutputFitSummary summary;
+  summary.name = "E_X0C";
+  summary.usable = true;
+  summary.order = 2;
+  summary.inputs_chosen = {"T_ENV", "T_FLUID"};
+  fit.outputs.push_back(summary);
+
+  const auto back = thermal_model_from_json(thermal_model_to_json(fit.model));
+  CHECK(back.input_names == fit.model.input_names);
+  REQUIRE(back.outputs.size() == 1);
+  CHECK(back.outputs[0].inputs == out.inputs);
+  CHECK(back.outputs[0].parameters[0] == 1.0 / 3.0);
+  CHECK(back.outputs[0].parameters[1] == -2.5e-17);
+  CHECK(std::isnan(back.outputs[0].parameters[2]));
+  CHECK(back.outputs[0].poles[0] == kInf);
+
+  const auto record = make_model_parameter_set(1, 100.0, "end of CP", 0.0, 100.0, fit, true);
+  CHECK(record.order == 2);
+  CHECK(record.inputs_chosen == std::vector<std::string>{"T_ENV", "T_FLUID"});
+  CHECK(record.usable);
+  CHECK_THROWS_AS(thermal_model_from_json("{}"), StorageError);
+}
+
+TEST_CASE("export writes CSV with one column per channel and quotes text", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "export.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    writer.add(test::sample_at(id, 0));
+    writer.add(ProbeMeasurementRecord{id, 60.0, "CP", {1.5, kNaN}, {0.0, 0.25}, 1.0});
+    writer.add(PhaseChangeRecord{id, 60.0, "CP", "NG", "residual, \"big\"\nsecond line"});
+    writer.add(ProbeIntervalChangeRecord{id, 60.0, kInf, "none"});
+  }
+  std::ostringstream samples, probes, phases, intervals;
+  export_table_csv(file, "input_samples", samples);
+  CHECK(samples.str() == "run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,20,21.5,0\n");
+  export_table_csv(file, "probe_measurements", probes);
+  CHECK(probes.str() ==
+        "run_id,time_s,phase,weight,measured_E_X0C,measured_E_A0C,compensation_E_X0C,compensation_E_A0C\n"
+        "1,60,CP,1,1.5,,0,0.25\n");
+  export_table_csv(file, "phase_changes", phases);
+  CHECK(phases.str() == "run_id,time_s,from_phase,to_phase,reason\n1,60,CP,NG,\"residual, \"\"big\"\"\nsecond line\"\n");
+  export_table_csv(file, "probe_interval_changes", intervals);
+  CHECK(intervals.str() == "run_id,time_s,interval_s,reason\n1,60,inf,none\n");
+
+  std::ostringstream sink;
+  CHECK_THROWS_WITH(export_table_csv(file, "runs; DROP TABLE runs", sink), Catch::Contains("no table 'runs; DROP TABLE runs'"));
+  CHECK(HistoryReader(file).runs().size() == 1);
+  for (const auto& table : exportable_tables()) {
+    std::ostringstream out;
+    CHECK_NOTHROW(export_table_csv(file, table, out));
+  }
+}
