@@ -246,6 +246,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       break;
     case Phase::PostCalibration:
       if (breaches.empty()) {
+        if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL");
         state_.next_probe_due_s = t + params_.post_cp_interval_s;
       } else if (!std::isfinite(params_.ng_interval_s) || params_.ng_measurements == 0.0) {
         // No NG burst configured: learn from what is there, right away.

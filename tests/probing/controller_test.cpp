@@ -48,6 +48,7 @@ AlcParameters test_parameters() {
   p.ng_measurements = 3;
   p.identification.max_order = 1;
   p.identification.min_measurements = 6;
+  p.refit_on_probe = false;  // the paper's literal state machine; refit_on_probe has its own test
   return p;
 }
 
@@ -162,6 +163,21 @@ TEST_CASE("controller: the periodic parameter update interval") {
   CHECK(updates[2].time_s == 8 * kHour);
   CHECK(updates[3].time_s == 11 * kHour);
   CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+}
+
+TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the ACL") {
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;
+  Driver d(p);
+  d.run_until(6 * kHour + kMinute);
+  // First model at 2 h, then one update per hourly probe at 3, 4, 5 and 6 h.
+  const auto updates = d.of_type(ControllerEvent::Type::ModelUpdate);
+  REQUIRE(updates.size() == 5);
+  for (std::size_t i = 1; i < updates.size(); ++i) {
+    CHECK(updates[i].time_s == (2.0 + static_cast<double>(i)) * kHour);
+    CHECK(updates[i].reason.rfind("Post-CP probe within the ACL", 0) == 0);
+  }
+  CHECK(d.controller.phase() == Phase::PostCalibration);
 }
 
 TEST_CASE("controller: Post-CP interval inf means no probe after CP") {

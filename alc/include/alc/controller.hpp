@@ -28,6 +28,8 @@ struct AlcParameters {
   double ng_measurements = 12;             // [-] NG probes before the update; inf: update after each NG probe
                                            //     and leave NG at the first probe within the ACL
   double update_interval_s = kInf;         // [s] periodic re-identification in Post-CP; inf: none
+  bool refit_on_probe = true;              // re-identify after every Post-CP probe within the ACL too, so
+                                           // each measurement is learned from (docs/identification.md)
   double acl_linear_um = 5.0;              // [µm] action control limit of linear errors
   double acl_angular_um_per_m = 15.0;      // [µm/m] action control limit of angular errors
   double learning_window_s = kInf;         // [s] re-identify on the data of this last span; inf: all data

@@ -1,0 +1,243 @@
+// alc replay: run the ALC controller over a recorded or built-in load case and print the paper's
+// indicators beside a static baseline.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "commands.hpp"
+#include "scenarios/load_cases.hpp"
+#include "scenarios/replay.hpp"
+#include "scenarios/scenario_csv.hpp"
+
+namespace alc::cli {
+
+namespace {
+
+// Parses a Tab. 1 value: a positive number or "inf", times `scale`; names the option on error.
+double parse_tab1(const std::string& option, const std::string& text, double scale) {
+  if (text == "inf" || text == "Inf" || text == "INF") return kInf;
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v) || v < 0.0)
+    throw UsageError(option + ": '" + text + "' is not a non-negative number or 'inf'");
+  return v * scale;
+}
+
+struct ReplayArgs {
+  std::string file;
+  std::string case_name;
+  std::uint64_t seed = 0;
+  bool seed_given = false;
+  std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
+  double acl_lin = 5.0, acl_ang = 15.0;
+  std::string window = "inf", half_life = "inf", method = "fixed-poles";
+  int max_order = IdentificationOptions{}.max_order;
+  bool json = false;
+  bool no_refit = false;
+  std::string residuals;
+};
+
+AlcParameters parameters_from(const ReplayArgs& a) {
+  AlcParameters p;
+  p.cp_duration_s = parse_tab1("--cp", a.cp, 3600.0);
+  p.cp_interval_s = parse_tab1("--cp-interval", a.cp_interval, 60.0);
+  p.post_cp_interval_s = parse_tab1("--interval", a.interval, 3600.0);
+  p.ng_interval_s = parse_tab1("--ng-interval", a.ng_interval, 60.0);
+  p.ng_measurements = parse_tab1("--ng-meas", a.ng_meas, 1.0);
+  p.update_interval_s = parse_tab1("--update", a.update, 3600.0);
+  p.acl_linear_um = a.acl_lin;
+  p.acl_angular_um_per_m = a.acl_ang;
+  p.refit_on_probe = !a.no_refit;
+  p.learning_window_s = parse_tab1("--window", a.window, 3600.0);
+  p.identification.forgetting_half_life_s = parse_tab1("--half-life", a.half_life, 3600.0);
+  p.identification.max_order = a.max_order;
+  if (a.method == "fixed-poles")
+    p.identification.method = IdentificationMethod::FixedPoles;
+  else if (a.method == "output-error")
+    p.identification.method = IdentificationMethod::OutputError;
+  else
+    throw UsageError("--method: '" + a.method + "' is not one of fixed-poles, output-error");
+  if (const std::string why = p.validate(); !why.empty()) throw UsageError("invalid parameters: " + why);
+  return p;
+}
+
+nlohmann::json outputs_json(const std::vector<scenarios::OutputIndicators>& outs) {
+  nlohmann::json j = nlohmann::json::object();
+  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  for (const auto& o : outs)
+    j[o.name] = {{"PV", num(o.PV)}, {"RMSE", num(o.RMSE)}, {"P99", num(o.P99)}, {"SMAPE", num(o.SMAPE)},
+                 {"P99_uncompensated", num(o.P99_uncompensated)}, {"measurements", o.measurements}};
+  return j;
+}
+
+nlohmann::json report_json(const scenarios::ReplayReport& r) {
+  return {{"outputs", outputs_json(r.outputs)},
+          {"Pd", r.Pd},
+          {"M", r.M},
+          {"ng_phases", r.ng_phases},
+          {"updates", r.updates},
+          {"rejected_fits", r.rejected_fits},
+          {"cp_end_h", std::isfinite(r.cp_end_s) ? nlohmann::json(r.cp_end_s / 3600.0) : nlohmann::json(nullptr)},
+          {"duration_h", r.duration_s / 3600.0},
+          {"baseline", {{"outputs", outputs_json(r.baseline)}}}};
+}
+
+std::string fmt(double v, int precision = 2) {
+  if (std::isnan(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", precision, v);
+  return buf;
+}
+
+void print_report(std::ostream& os, const std::string& title, const scenarios::ReplayReport& r) {
+  os << title << "\n";
+  os << "  duration " << fmt(r.duration_s / 3600.0, 1) << " h, CP ended at "
+     << (std::isfinite(r.cp_end_s) ? fmt(r.cp_end_s / 3600.0, 2) + " h" : std::string("never")) << ", M = " << r.M
+     << " probe cycles, Pd = " << fmt(r.Pd) << " %, NG phases " << r.ng_phases << ", model updates " << r.updates
+     << (r.rejected_fits ? ", rejected fits " + std::to_string(r.rejected_fits) : std::string()) << "\n";
+  char line[256];
+  std::snprintf(line, sizeof line, "  %-8s %-5s %8s %8s %8s %9s %12s %13s\n", "output", "unit", "PV[%]", "RMSE",
+                "P99", "SMAPE[%]", "P99 uncomp", "P99 baseline");
+  os << line;
+  for (std::size_t i = 0; i < r.outputs.size(); ++i) {
+    const auto& o = r.outputs[i];
+    std::snprintf(line, sizeof line, "  %-8s %-5s %8s %8s %8s %9s %12s %13s\n", o.name.c_str(),
+                  std::string(unit_of(o.kind)).c_str(), fmt(o.PV, 1).c_str(), fmt(o.RMSE).c_str(), fmt(o.P99).c_str(),
+                  fmt(o.SMAPE, 1).c_str(), fmt(o.P99_uncompensated).c_str(), fmt(r.baseline[i].P99).c_str());
+    os << line;
+  }
+  os << "  mean P99 linear: ALC " << fmt(r.mean_p99(ErrorKind::Linear)) << " µm, baseline "
+     << fmt(r.mean_p99(ErrorKind::Linear, true)) << " µm, uncompensated "
+     << fmt(r.mean_p99_uncompensated(ErrorKind::Linear)) << " µm\n";
+  os << "  mean P99 angular: ALC " << fmt(r.mean_p99(ErrorKind::Angular)) << " µm/m, baseline "
+     << fmt(r.mean_p99(ErrorKind::Angular, true)) << " µm/m, uncompensated "
+     << fmt(r.mean_p99_uncompensated(ErrorKind::Angular)) << " µm/m\n";
+}
+
+double mean_over(const std::vector<scenarios::OutputIndicators>& outs, double scenarios::OutputIndicators::*f) {
+  double s = 0.0;
+  int n = 0;
+  for (const auto& o : outs)
+    if (!std::isnan(o.*f)) {
+      s += o.*f;
+      ++n;
+    }
+  return n ? s / n : std::nan("");
+}
+
+// One line per case, like Tab. 3 of seed 004 (SMAPE, RMSE, PV averaged over all errors; P99 over
+// the linear errors), with the baseline and the uncompensated P99 beside it.
+void print_table3(std::ostream& os, const std::vector<std::pair<std::string, scenarios::ReplayReport>>& rows) {
+  char line[256];
+  std::snprintf(line, sizeof line, "%-5s %9s %9s %7s %9s %11s %7s %5s %4s %4s %14s %12s\n", "case", "SMAPE[%]",
+                "RMSE[µm]", "PV[%]", "P99[µm]", "P99ang", "Pd[%]", "M", "NG", "upd", "baseline P99", "uncomp P99");
+  os << line;
+  for (const auto& [name, r] : rows) {
+    std::snprintf(line, sizeof line, "%-5s %9s %9s %7s %9s %11s %7s %5d %4d %4d %14s %12s\n", name.c_str(),
+                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::SMAPE)).c_str(),
+                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::RMSE)).c_str(),
+                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::PV)).c_str(),
+                  fmt(r.mean_p99(ErrorKind::Linear)).c_str(), fmt(r.mean_p99(ErrorKind::Angular)).c_str(),
+                  fmt(r.Pd).c_str(), r.M, r.ng_phases, r.updates, fmt(r.mean_p99(ErrorKind::Linear, true)).c_str(),
+                  fmt(r.mean_p99_uncompensated(ErrorKind::Linear)).c_str());
+    os << line;
+  }
+}
+
+void run_replay(const ReplayArgs& a) {
+  if (a.file.empty() == a.case_name.empty()) throw UsageError("give exactly one of FILE.csv or --case");
+  const AlcParameters params = parameters_from(a);
+  std::vector<std::pair<std::string, scenarios::Scenario>> cases;
+  if (!a.file.empty()) {
+    cases.emplace_back(a.file, scenarios::read_scenario_csv(a.file));
+  } else {
+    std::vector<std::string> names;
+    if (a.case_name == "all") {
+      for (const auto& info : scenarios::load_cases()) names.push_back(info.name);
+    } else if (scenarios::find_case(a.case_name)) {
+      names.push_back(a.case_name);
+    } else {
+      throw UsageError("--case: unknown load case '" + a.case_name + "' (see 'alc simulate --list')");
+    }
+    for (const auto& name : names) {
+      auto simulated = scenarios::simulate_case(name, a.seed_given ? std::optional<std::uint64_t>(a.seed) : std::nullopt);
+      cases.emplace_back(name, std::move(simulated.scenario));
+    }
+  }
+  if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
+
+  std::vector<std::pair<std::string, scenarios::ReplayReport>> reports;
+  for (const auto& [name, scenario] : cases) {
+    scenarios::ReplaySession session(scenario, params);
+    session.run();
+    reports.emplace_back(name, session.report());
+    if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session.residuals());
+  }
+  if (a.json) {
+    if (reports.size() == 1) {
+      std::cout << report_json(reports.front().second).dump(2) << "\n";
+    } else {
+      nlohmann::json j = nlohmann::json::object();
+      for (const auto& [name, r] : reports) j[name] = report_json(r);
+      std::cout << j.dump(2) << "\n";
+    }
+    return;
+  }
+  for (const auto& [name, r] : reports) print_report(std::cout, "Load case " + name, r);
+  if (reports.size() > 1) {
+    std::cout << "\n";
+    print_table3(std::cout, reports);
+  }
+}
+
+}  // namespace
+
+void add_replay_command(CLI::App& app) {
+  auto args = std::make_shared<ReplayArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "Replay a scenario CSV or built-in load case through the ALC controller and print the indicators "
+                "of seed 004 (PV, RMSE, P99, SMAPE per error; Pd, M, NG phases, updates) beside a static MLR "
+                "baseline fitted once on the CP measurements. Defaults: the paper's chosen set (Tab. 3).");
+  cmd->add_option("file", args->file, "Scenario CSV to replay (see README, 'Scenario CSV')");
+  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, or all (A–D with a Tab. 3 summary)");
+  cmd->add_option_function<std::uint64_t>(
+      "--seed", [args](std::uint64_t s) { args->seed = s; args->seed_given = true; },
+      "Seed of the built-in load case (default: the case's own seed)");
+  cmd->add_option("--cp", args->cp, "Calibration phase length [h]")->capture_default_str();
+  cmd->add_option("--cp-interval", args->cp_interval, "Probe interval during CP [min]")->capture_default_str();
+  cmd->add_option("--interval", args->interval, "Probe interval after CP [h], or inf")->capture_default_str();
+  cmd->add_option("--ng-interval", args->ng_interval, "Probe interval in the No-Good phase [min], or inf")
+      ->capture_default_str();
+  cmd->add_option("--ng-meas", args->ng_meas, "Probes in a No-Good phase before the update, or inf")
+      ->capture_default_str();
+  cmd->add_option("--update", args->update, "Periodic parameter update interval [h], or inf")->capture_default_str();
+  cmd->add_option("--acl-lin", args->acl_lin, "Action control limit of linear errors [µm]")->capture_default_str();
+  cmd->add_option("--acl-ang", args->acl_ang, "Action control limit of angular errors [µm/m]")->capture_default_str();
+  cmd->add_option("--window", args->window, "Re-identify on the data of the last H hours, or inf (all data)")
+      ->capture_default_str();
+  cmd->add_option("--half-life", args->half_life, "Forgetting: a probe's weight halves every H hours, or inf")
+      ->capture_default_str();
+  cmd->add_option("--method", args->method, "Identification route: fixed-poles or output-error (docs/identification.md)")
+      ->capture_default_str();
+  cmd->add_option("--max-order", args->max_order, "Highest number of poles per input tried by structure selection")
+      ->capture_default_str();
+  cmd->add_flag("--no-refit", args->no_refit,
+                "Re-identify only at the end of CP, after NG and at --update (the paper's literal reading); "
+                "by default every Post-CP probe within the ACL is learned from too");
+  cmd->add_flag("--json", args->json, "Print the result as JSON instead of tables");
+  cmd->add_option("--residuals", args->residuals,
+                  "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "
+                  "measurement after CP to this CSV");
+  cmd->callback([args] { run_replay(*args); });
+}
+
+}  // namespace alc::cli
