@@ -1,6 +1,7 @@
 // alc db: inspect, check, export and benchmark a history database (storage/, docs/storage.md).
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -61,6 +62,12 @@ void run_check(const std::string& file) {
 }
 
 void run_export(const std::string& file, const std::string& table, const std::string& out) {
+  const auto& tables = storage::exportable_tables();
+  if (std::find(tables.begin(), tables.end(), table) == tables.end()) {
+    std::string known;
+    for (const auto& name : tables) known += (known.empty() ? "" : ", ") + name;
+    throw UsageError("--table '" + table + "' is not a table of the history; tables: " + known);
+  }
   if (out == "-") {
     storage::export_table_csv(file, table, std::cout);
     return;
@@ -116,7 +123,9 @@ void add_db_command(CLI::App& app) {
   auto* exp = db->add_subcommand("export", "One table as CSV (header line, RFC 4180 quoting, vectors spread "
                                            "into one column per channel)");
   exp->add_option("FILE", *file, "History database")->required();
-  exp->add_option("--table", *table, "Table to export")->required()->check(CLI::IsMember(storage::exportable_tables()));
+  exp->add_option("--table", *table, "Table to export: runs, run_channels, input_samples, probe_measurements, "
+                  "predictions, model_parameter_sets, phase_changes, probe_interval_changes, nc_commands, "
+                  "controller_snapshots")->required();
   exp->add_option("--out", *out, "CSV file to write ('-' for stdout)")->required();
   exp->callback([file, table, out] { run_export(*file, *table, *out); });
 

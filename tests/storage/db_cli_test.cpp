@@ -1,0 +1,102 @@
+// `alc db info|check|export` on real files: output, exit codes, errors on stderr.
+#include <sys/wait.h>
+
+#include <array>
+#include <catch2/catch.hpp>
+#include <cstdio>
+
+#include "storage/history_writer.hpp"
+#include "storage_test_support.hpp"
+
+using namespace alc::storage;
+using alc::storage::test::RawDb;
+using alc::storage::test::ScratchDir;
+
+namespace {
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Outcome run_alc(const std::string& arguments) {
+  const std::string command = std::string(ALC_CLI_PATH) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  REQUIRE(pipe);
+  Outcome outcome;
+  std::array<char, 4096> buffer{};
+  while (std::fgets(buffer.data(), static_cast<int>(buffer.size()), pipe)) outcome.output += buffer.data();
+  const int status = pclose(pipe);
+  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return outcome;
+}
+
+std::string quoted(const std::filesystem::path& path) { return std::string(1, '\'').append(path.string()).append(1, '\''); }
+
+}  // namespace
+
+TEST_CASE("alc db info, check and export on a sound history", "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "history.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    for (std::int64_t k = 0; k < 61; ++k) writer.add(test::sample_at(id, k));
+    writer.save_snapshot({id, 3600.0, 61, "test/1", true, "{}"});
+  }
+  const Outcome info = run_alc("db info " + quoted(file));
+  CHECK(info.exit_code == 0);
+  CHECK_THAT(info.output, Catch::Contains("schema version: 2") && Catch::Contains("runs: 1") &&
+                              Catch::Contains("time_s 0 .. 3600 (1 h)") && Catch::Contains("input_samples           61"));
+  const Outcome check = run_alc("db check " + quoted(file));
+  CHECK(check.exit_code == 0);
+  CHECK_THAT(check.output, Catch::EndsWith(": ok\n"));
+
+  const auto csv = dir / "samples.csv";
+  const Outcome exported = run_alc("db export " + quoted(file) + " --table input_samples --out " + quoted(csv));
+  CHECK(exported.exit_code == 0);
+  const std::string text = test::read_bytes(csv);
+  CHECK_THAT(text, Catch::StartsWith("run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,20,21.5,0\n1,1,60,20.001,21.5,500\n"));
+
+  const Outcome bad_table = run_alc("db export " + quoted(file) + " --table 'runs; DROP TABLE runs' --out " + quoted(csv));
+  CHECK(bad_table.exit_code == 2);
+  CHECK_THAT(bad_table.output, Catch::Contains("is not a table of the history"));
+  CHECK(test::read_bytes(csv) == text);  // the earlier export is not clobbered by a failed one
+}
+
+TEST_CASE("alc db check reports the project's consistency problems and exits 1", "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "broken.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    for (std::int64_t k = 0; k < 5; ++k) writer.add(test::sample_at(id, k));
+    writer.save_snapshot({id, 240.0, 5, "test/1", true, R"({"k":4})"});
+  }
+  {
+    RawDb raw(file);
+    raw.exec("UPDATE input_samples SET time_s = 1.0 WHERE sample_index = 3;"
+             "UPDATE runs SET config_json = '{broken';"
+             "UPDATE controller_snapshots SET payload = CAST('{\"k\":' AS BLOB);");
+  }
+  const Outcome check = run_alc("db check " + quoted(file));
+  CHECK(check.exit_code == 1);
+  CHECK_THAT(check.output, Catch::Contains("input_samples: time_s not strictly increasing (run, sample, time_s): 1 3 1") &&
+                               Catch::Contains("run 1: configuration is not valid JSON") &&
+                               Catch::Contains("JSON payload does not parse") && Catch::Contains("3 problem(s) found"));
+}
+
+TEST_CASE("alc db commands name the file and the cause for a file that is not a history", "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "notes.txt";
+  test::write_bytes(file, std::string(4096, 'x'));
+  for (const std::string command : {"info", "check"}) {
+    const Outcome outcome = run_alc("db " + command + " " + quoted(file));
+    CHECK(outcome.exit_code == 1);
+    CHECK_THAT(outcome.output, Catch::Contains(file.string()) && Catch::Contains("not an SQLite database"));
+  }
+  CHECK(test::read_bytes(file) == std::string(4096, 'x'));
+  const Outcome missing = run_alc("db info " + quoted(dir / "missing.sqlite"));
+  CHECK(missing.exit_code == 1);
+  CHECK_THAT(missing.output, Catch::Contains("no such file"));
+}
