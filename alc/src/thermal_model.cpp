@@ -96,10 +96,10 @@ Eigen::VectorXd ModelPredictor::step(double time_s, const Eigen::VectorXd& input
   }
   if (!started || dt > 0.0) state_(kLastTime) = time_s;
   state_(kStarted) = 1.0;
-  return output();
+  return prediction();
 }
 
-Eigen::VectorXd ModelPredictor::output() const {
+Eigen::VectorXd ModelPredictor::prediction() const {
   const auto n_in = static_cast<Eigen::Index>(model_.input_names.size());
   Eigen::VectorXd y(static_cast<Eigen::Index>(model_.outputs.size()));
   Eigen::Index at = kHeld + n_in;

@@ -166,6 +166,12 @@ TEST_CASE("identify: an 8-day case with 7 outputs takes milliseconds") {
   INFO(c.probes.size() << " probes, " << c.history.time_s.size() << " samples: " << ms << " ms");
   REQUIRE(fit.usable);
   CHECK(c.history.time_s.size() == 11521);
-  // generous for sanitizer builds; the Release figure is in docs/identification.md
-  CHECK(ms < 2000.0);
+  // A few ms in Release (docs/identification.md); the bound leaves room for a loaded machine, and
+  // Debug/sanitizer builds (no NDEBUG) are ~100x slower.
+#ifdef NDEBUG
+  constexpr double kLimit_ms = 200.0;
+#else
+  constexpr double kLimit_ms = 20000.0;
+#endif
+  CHECK(ms < kLimit_ms);
 }

@@ -17,6 +17,15 @@ double grid_tau(int g, const IdentificationOptions& o = {}) {
   return o.tau_min_s * std::pow(o.tau_max_s / o.tau_min_s, double(g) / (o.pole_grid_size - 1));
 }
 
+// For noiseless data of an exactly representable system: plain least squares without ridge (the
+// default relative ridge 1e-6 biases the gains by ~1e-5 µm).
+IdentificationOptions exact_options() {
+  IdentificationOptions o;
+  o.robust_loss = RobustLoss::None;
+  o.ridge = 0.0;
+  return o;
+}
+
 std::vector<std::string> names_of(const ThermalModel& m) {
   std::vector<std::string> n;
   for (const OutputModel& o : m.outputs) n.push_back(o.name);
@@ -33,10 +42,7 @@ TEST_CASE("identify: recovers a known order-2 system from noiseless probes (CP 5
       h, {test::output_model("E_X0C", {0, 1}, {grid_tau(1), grid_tau(3)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
   const Eigen::MatrixXd y = test::simulate(truth, h);
   const auto probes = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 7200.0));
-  IdentificationOptions o;
-  o.robust_loss = RobustLoss::None;
-  o.ridge = 0.0;  // the default relative ridge 1e-6 biases the gains by ~1e-5 µm
-  const FitResult fit = identify(h, names_of(truth), probes, o);
+  const FitResult fit = identify(h, names_of(truth), probes, exact_options());
   INFO(fit.message);
   REQUIRE(fit.usable);
   const OutputModel& m = fit.model.outputs.at(0);
@@ -65,10 +71,7 @@ TEST_CASE("identify: classical ARX(1,1) difference equation is recovered as gain
   Eigen::MatrixXd y = Eigen::MatrixXd::Zero(h.inputs.rows(), 1);
   for (Eigen::Index n = 1; n < h.inputs.rows(); ++n) y(n, 0) = a * y(n - 1, 0) + b * (h.inputs(n - 1, 0) - h.inputs(0, 0));
   const auto probes = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0));
-  IdentificationOptions o;
-  o.robust_loss = RobustLoss::None;
-  o.ridge = 0.0;
-  const FitResult fit = identify(h, {"E_Y0C"}, probes, o);
+  const FitResult fit = identify(h, {"E_Y0C"}, probes, exact_options());
   INFO(fit.message);
   REQUIRE(fit.usable);
   const OutputModel& m = fit.model.outputs.at(0);
@@ -89,6 +92,9 @@ TEST_CASE("identify: FitResult::predictor_state continues like a predictor stepp
   ModelPredictor replayed(fit.model);
   for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) replayed.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose());
   REQUIRE(replayed.state() == fit.predictor_state);
+  ModelPredictor resumed(fit.model);
+  resumed.set_state(fit.predictor_state);
+  REQUIRE((resumed.prediction().array() == replayed.prediction().array()).all());
 }
 
 TEST_CASE("identify: parameters lie within their confidence under seeded noise") {
@@ -133,10 +139,7 @@ TEST_CASE("identify: irregular probe times (5 min, then 1-6 h) between 15 s inpu
     p.errors = y.row(k).transpose();
     probes.push_back(p);
   }
-  IdentificationOptions o;
-  o.robust_loss = RobustLoss::None;
-  o.ridge = 0.0;
-  const FitResult fit = identify(h, {"E_Z0T"}, probes, o);
+  const FitResult fit = identify(h, {"E_Z0T"}, probes, exact_options());
   INFO(fit.message);
   REQUIRE(fit.usable);
   const OutputModel& m = fit.model.outputs[0];

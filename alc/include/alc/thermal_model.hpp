@@ -137,14 +137,14 @@ class ModelPredictor {
   // previous sample held. A non-finite input keeps its previous value (the reference at the first
   // sample); a time not after the previous one only replaces the held input.
   Eigen::VectorXd step(double time_s, const Eigen::VectorXd& inputs);
+  // The prediction for the current state (what the last step() returned; b0 before any step).
+  Eigen::VectorXd prediction() const;
   const ThermalModel& model() const { return model_; }
   // Exact state for save/restore; set_state() throws std::invalid_argument on a size mismatch.
   Eigen::VectorXd state() const;
   void set_state(const Eigen::VectorXd& state);
 
  private:
-  Eigen::VectorXd output() const;
-
   ThermalModel model_;
   // Layout: [started 0/1, last time [s], held inputs (n_inputs), lag states per output, per used
   // input, per pole]. Everything the predictor needs to continue; the rest is derived from model_.
