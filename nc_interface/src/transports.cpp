@@ -13,6 +13,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "nc_interface/nc_number.hpp"
 #include "nc_interface/recorder.hpp"
 
 namespace alc::nc {
@@ -213,7 +214,8 @@ void LinuxcncrshSink::deliver(const NcCommand& command) {
   for (std::size_t i = 0; i < 6; ++i) {
     if (i == 3 && !o->a_deg) continue;
     if (i == 4 && !o->b_deg) continue;
-    if (std::abs(got[i] - std::round(want[i] * 1e4) / 1e4) > 0.5e-4)
+    // Compare with the text that was sent (4 decimals); LinuxCNC prints 6.
+    if (std::abs(got[i] - std::stod(format_nc_number(want[i]))) > 0.5e-4)
       throw SinkError("linuxcncrsh: read back " + std::string(1, kAxes[i]) + " offset " + std::to_string(got[i]) +
                       ", sent " + std::to_string(want[i]));
   }

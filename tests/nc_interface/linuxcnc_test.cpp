@@ -1,0 +1,404 @@
+// A real controller to test against: LinuxCNC (Debian package linuxcnc-uspace, installed by
+// scripts/test.sh). The standalone interpreter rs274 checks every program the linuxcnc writer
+// produces; the headless simulator, driven over linuxcncrsh, checks that sent offsets are applied.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <fcntl.h>
+#include <random>
+#include <regex>
+#include <sstream>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/jsonl.hpp"
+#include "nc_interface/nc_number.hpp"
+#include "nc_interface/safety.hpp"
+#include "nc_interface/transports.hpp"
+#include "nc_test_support.hpp"
+
+using namespace alc::nc;
+using alc::nc::test::read_text;
+using alc::nc::test::write_text;
+using Catch::Matchers::WithinAbs;
+
+namespace {
+
+constexpr double kMmPerInch = 25.4;
+// The standalone interpreter saves lengths in the var file in inches with 6 decimals.
+constexpr double kVarFileTolMm = 0.5e-6 * kMmPerInch + 1e-9;  // [mm]
+constexpr double kReadBackTol = 0.5e-4;                       // [mm] or [°] sim read-back vs 4-decimal text
+
+bool on_path(const std::string& program) {
+  return std::system(("command -v " + program + " > /dev/null 2>&1").c_str()) == 0;
+}
+
+std::string require_program(const std::string& program) {
+  if (!on_path(program))
+    FAIL(program << " not found: install the Debian package linuxcnc-uspace (scripts/test.sh does this)");
+  return program;
+}
+
+struct Rs274Run {
+  int exit_code = -1;
+  std::string canon;  // canonical machining commands
+  std::string var;    // the var file after the run
+};
+
+Rs274Run run_rs274(const std::filesystem::path& dir, const std::string& program, const std::string& var_before) {
+  require_program("rs274");
+  write_text(dir / "tool.tbl", "T1 P1 Z0 D0 ;\n");
+  write_text(dir / "params.var", var_before);
+  write_text(dir / "program.ngc", program);
+  std::filesystem::remove(dir / "canon.txt");
+  const std::string cmd = "cd '" + dir.string() + "' && timeout 60 rs274 -g -t tool.tbl -v params.var program.ngc canon.txt" +
+                          " > rs274.log 2>&1";
+  const int status = std::system(cmd.c_str());
+  Rs274Run r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.canon = read_text(dir / "canon.txt");
+  r.var = read_text(dir / "params.var");
+  return r;
+}
+
+// The SET_G5X_OFFSET lines of the G10s. Each "G21 G10 L2 P1 …" line gives USE_LENGTH_UNITS then
+// SET_G5X_OFFSET; the interpreter's own SET_G5X_OFFSET at start-up and at M2 come without it.
+std::vector<std::string> g10_offsets(const std::string& canon) {
+  std::vector<std::string> out;
+  std::istringstream in(canon);
+  std::string line;
+  bool in_program = false;
+  bool after_units = false;
+  while (std::getline(in, line)) {
+    if (line.find("COMMENT(\"ALC thermal compensation") != std::string::npos) in_program = true;
+    const auto at = line.find("SET_G5X_OFFSET(");
+    if (in_program && at != std::string::npos && after_units) out.push_back(line.substr(at));
+    after_units = line.find("USE_LENGTH_UNITS(CANON_UNITS_MM)") != std::string::npos;
+  }
+  return out;
+}
+
+std::string expected_g5x(const AxisOffsets& o) {
+  return "SET_G5X_OFFSET(1, " + format_nc_number(o.x_mm) + ", " + format_nc_number(o.y_mm) + ", " +
+         format_nc_number(o.z_mm) + ", " + format_nc_number(o.a_deg.value_or(0.0)) + ", " +
+         format_nc_number(o.b_deg.value_or(0.0)) + ", " + format_nc_number(o.c_deg) + ")";
+}
+
+double var_value(const std::string& var, int parameter) {
+  std::istringstream in(var);
+  int p = 0;
+  double v = 0.0;
+  while (in >> p >> v)
+    if (p == parameter) return v;
+  FAIL("parameter " << parameter << " not in the var file");
+  return 0.0;
+}
+
+AxisOffsets offsets(double x, double y, double z, std::optional<double> a, std::optional<double> b, double c,
+                    int work_offset = 1) {
+  AxisOffsets o;
+  o.x_mm = x;
+  o.y_mm = y;
+  o.z_mm = z;
+  o.a_deg = a;
+  o.b_deg = b;
+  o.c_deg = c;
+  o.work_offset = work_offset;
+  return o;
+}
+
+// Zero, tiny (rounds to zero / to one count), negative, and the default safety limits.
+std::vector<NcCommand> edge_commands() {
+  const SafetyLimits l;
+  return {offsets(0, 0, 0, 0.0, {}, 0),
+          ProbeInterval{5.0, {}},
+          offsets(0.00004, -0.00004, 0.00005, -0.00005, {}, 0.00015),
+          offsets(-0.0123, -0.004, -0.0001, -0.001, {}, -0.002),
+          offsets(l.max_offset.x_mm, -l.max_offset.y_mm, l.max_offset.z_mm, -l.max_offset.a_deg, {}, l.max_offset.c_deg),
+          offsets(-l.max_offset.x_mm, l.max_offset.y_mm, -l.max_offset.z_mm, {}, l.max_offset.b_deg, -l.max_offset.c_deg),
+          ProbeInterval{std::nullopt, {}},
+          ProbeInterval{0.0001, {}},
+          ProbeInterval{1440.0, {}},
+          offsets(1e-9, -1e-9, 0, 0.0, {}, -1e-9)};
+}
+
+void check_program_in_rs274(const std::filesystem::path& dir, const std::vector<NcCommand>& commands) {
+  const std::string program = write_program(Dialect::LinuxCNC, commands);
+  const Rs274Run r = run_rs274(dir, program, "3001 0.0\n");
+  INFO("program:\n" << program << "\nrs274 log:\n" << read_text(dir / "rs274.log"));
+  REQUIRE(r.exit_code == 0);
+  std::vector<std::string> expected;
+  std::optional<double> last_interval;
+  AxisOffsets g54 = offsets(0, 0, 0, 0.0, 0.0, 0);  // G10 L2 leaves an axis without a word unchanged
+  for (const NcCommand& c : commands) {
+    if (const auto* o = std::get_if<AxisOffsets>(&c)) {
+      if (o->work_offset != 1) continue;
+      const AxisOffsets previous = g54;
+      g54 = *o;
+      g54.a_deg = o->a_deg ? o->a_deg : previous.a_deg;
+      g54.b_deg = o->b_deg ? o->b_deg : previous.b_deg;
+      expected.push_back(expected_g5x(g54));
+    } else {
+      last_interval = std::get<ProbeInterval>(c).minutes.value_or(0.0);
+    }
+  }
+  const std::vector<std::string> got = g10_offsets(r.canon);
+  REQUIRE(got.size() == expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    INFO("G10 number " << i + 1);
+    CHECK(got[i] == expected[i]);
+  }
+  // The interval parameter is listed in the var file, so the interpreter keeps it there.
+  if (last_interval) CHECK_THAT(var_value(r.var, 3001), WithinAbs(std::stod(format_nc_number(*last_interval)), 1e-9));
+  // The last offset of every other work offset is in the var file (5221 + 20·(n−1) …, lengths in inches).
+  for (int wo = 2; wo <= 6; ++wo) {
+    const AxisOffsets* last = nullptr;
+    for (const NcCommand& c : commands)
+      if (const auto* o = std::get_if<AxisOffsets>(&c); o && o->work_offset == wo) last = o;
+    if (!last) continue;
+    const int base = 5221 + 20 * (wo - 1);
+    INFO("work offset " << work_offset_name(wo));
+    CHECK_THAT(var_value(r.var, base) * kMmPerInch, WithinAbs(std::stod(format_nc_number(last->x_mm)), kVarFileTolMm));
+    CHECK_THAT(var_value(r.var, base + 1) * kMmPerInch, WithinAbs(std::stod(format_nc_number(last->y_mm)), kVarFileTolMm));
+    CHECK_THAT(var_value(r.var, base + 2) * kMmPerInch, WithinAbs(std::stod(format_nc_number(last->z_mm)), kVarFileTolMm));
+    CHECK_THAT(var_value(r.var, base + 5), WithinAbs(std::stod(format_nc_number(last->c_deg)), 1e-6));
+  }
+}
+
+unsigned test_seed() {
+  const char* s = std::getenv("ALC_TEST_SEED");
+  return s ? static_cast<unsigned>(std::strtoul(s, nullptr, 10)) : 20261122u;
+}
+
+}  // namespace
+
+TEST_CASE("linuxcnc rs274: edge values, as one program and one program per command", "[linuxcnc][rs274]") {
+  const auto dir = alc::nc::test::fresh_dir("rs274_edges");
+  check_program_in_rs274(dir, edge_commands());
+  for (const NcCommand& c : edge_commands()) check_program_in_rs274(dir, {c});
+  // Other work offsets land in the var file.
+  std::vector<NcCommand> others;
+  for (int wo = 2; wo <= 6; ++wo) others.push_back(offsets(0.01 * wo, -0.003 * wo, 0.0001 * wo, 0.001, {}, -0.001 * wo, wo));
+  check_program_in_rs274(dir, others);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("linuxcnc rs274: a bad line is rejected (the check can fail)", "[linuxcnc][rs274]") {
+  const auto dir = alc::nc::test::fresh_dir("rs274_bad");
+  const Rs274Run r = run_rs274(dir, "G10 L2 P1 X1e-5\nM2\n", "3001 0.0\n");
+  CHECK(r.exit_code == 1);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("linuxcnc rs274: a long random seeded sequence through the safety gate", "[linuxcnc][rs274]") {
+  std::mt19937 rng(test_seed());
+  std::normal_distribution<double> walk(0.0, 0.004);
+  std::uniform_int_distribution<int> pick(0, 9);
+  SafetyLimits limits;
+  limits.on_step_violation = StepAction::Split;
+  SafetyGate gate(limits);
+  std::vector<NcCommand> commands;
+  AxisOffsets target = offsets(0, 0, 0, 0.0, {}, 0);
+  for (int i = 0; i < 400; ++i) {
+    if (pick(rng) == 0) {
+      commands.push_back(ProbeInterval{std::max(0.0001, std::abs(walk(rng)) * 1e5), {}});
+      continue;
+    }
+    const auto clamp = [](double v, double m) { return std::clamp(v, -m, m); };
+    target.x_mm = clamp(target.x_mm + walk(rng), limits.max_offset.x_mm);
+    target.y_mm = clamp(target.y_mm + walk(rng), limits.max_offset.y_mm);
+    target.z_mm = clamp(target.z_mm + walk(rng), limits.max_offset.z_mm);
+    target.a_deg = clamp(*target.a_deg + walk(rng) / 10, limits.max_offset.a_deg);
+    target.c_deg = clamp(target.c_deg + walk(rng) / 10, limits.max_offset.c_deg);
+    const SafetyDecision d = gate.submit(target);
+    REQUIRE(d.verdict != SafetyVerdict::Refused);
+    commands.insert(commands.end(), d.to_send.begin(), d.to_send.end());
+  }
+  INFO("seed " << test_seed() << ", " << commands.size() << " commands");
+  const auto dir = alc::nc::test::fresh_dir("rs274_random");
+  check_program_in_rs274(dir, commands);
+  std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+// The headless simulator: XYZAC, trivkins, simulated homing, linuxcncrsh as the display.
+std::string sim_ini(int port) {
+  std::ostringstream s;
+  s << "[EMC]\nVERSION = 1.1\nMACHINE = ALC-NC-TEST\nDEBUG = 0\n"
+    << "[DISPLAY]\nDISPLAY = linuxcncrsh -p " << port << "\n"
+    << "[TASK]\nTASK = milltask\nCYCLE_TIME = 0.010\n"
+    << "[RS274NGC]\nPARAMETER_FILE = sim.var\n"
+    << "[EMCMOT]\nEMCMOT = motmod\nCOMM_TIMEOUT = 1.0\nSERVO_PERIOD = 1000000\n"
+    << "[EMCIO]\nEMCIO = io\nCYCLE_TIME = 0.100\nTOOL_TABLE = sim.tbl\n"
+    << "[HAL]\nHALFILE = LIB:basic_sim.tcl -no_use_hal_manualtoolchange\n"
+    << "[TRAJ]\nCOORDINATES = X Y Z A C\nLINEAR_UNITS = mm\nANGULAR_UNITS = degree\nMAX_LINEAR_VELOCITY = 50\n"
+    << "[KINS]\nKINEMATICS = trivkins coordinates=XYZAC\nJOINTS = 5\n";
+  const char* axes = "XYZAC";
+  for (int j = 0; j < 5; ++j) {
+    const bool linear = j < 3;
+    const int lim = linear ? 500 : 3600;
+    s << "[AXIS_" << axes[j] << "]\nMAX_VELOCITY = 50\nMAX_ACCELERATION = 500\nMIN_LIMIT = -" << lim
+      << "\nMAX_LIMIT = " << lim << "\n"
+      << "[JOINT_" << j << "]\nTYPE = " << (linear ? "LINEAR" : "ANGULAR")
+      << "\nHOME = 0\nMAX_VELOCITY = 50\nMAX_ACCELERATION = 500\nMIN_LIMIT = -" << lim << "\nMAX_LIMIT = " << lim
+      << "\nFERROR = 10\nMIN_FERROR = 1\nHOME_OFFSET = 0\nHOME_SEARCH_VEL = 0\nHOME_LATCH_VEL = 0\nHOME_SEQUENCE = 0\n";
+  }
+  return s.str();
+}
+
+// Runs `linuxcnc -r sim.ini` in its own process group; stops it by its PID (never by name).
+class Simulator {
+ public:
+  Simulator(std::filesystem::path dir, int port) : dir_(std::move(dir)), port_(port) {
+    write_text(dir_ / "sim.ini", sim_ini(port));
+    write_text(dir_ / "sim.var", "3001 0.0\n");
+    write_text(dir_ / "sim.tbl", "T1 P1 Z0 D0 ;\n");
+    const auto fifo_dir = dir_ / "rtapi";
+    std::filesystem::create_directories(fifo_dir);
+    const bool root = ::geteuid() == 0;
+    // As root, rtapi_app drops to RTAPI_UID and needs its socket in a directory that user owns.
+    if (root && ::chown(fifo_dir.c_str(), 65534, 65534) != 0) FAIL("cannot chown " << fifo_dir << " to nobody");
+    if (root) std::filesystem::permissions(dir_, std::filesystem::perms::all, std::filesystem::perm_options::add);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::setsid();
+      if (::chdir(dir_.c_str()) != 0) ::_exit(126);
+      const int log = ::open("run.log", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(log, 1);
+      ::dup2(log, 2);
+      ::unsetenv("DISPLAY");
+      if (root) {
+        ::setenv("RTAPI_UID", "65534", 1);
+        ::setenv("RTAPI_FIFO_PATH", (fifo_dir / "rtapi_fifo").c_str(), 1);
+      }
+      ::execlp("linuxcnc", "linuxcnc", "-r", "sim.ini", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+  }
+
+  bool running() {
+    if (pid_ <= 0) return false;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      pid_ = -1;
+      return false;
+    }
+    return true;
+  }
+
+  std::string log() const { return read_text(dir_ / "run.log"); }
+
+  // Stops by asking linuxcncrsh to shut down, then by signals to the process group; bounded.
+  void stop(LinuxcncrshClient* client) {
+    if (client && client->connected()) {
+      try {
+        client->request("shutdown");
+      } catch (const std::exception&) {
+      }
+    }
+    for (int sig : {0, SIGTERM, SIGKILL}) {
+      if (sig != 0 && pid_ > 0) ::kill(-pid_, sig);
+      for (int i = 0; i < 300 && running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (!running()) return;
+    }
+  }
+
+  ~Simulator() { stop(nullptr); }
+
+ private:
+  std::filesystem::path dir_;
+  int port_;
+  pid_t pid_ = -1;
+};
+
+// One simulator on the machine at a time (LinuxCNC allows one instance, /tmp/linuxcnc.lock).
+class MachineLock {
+ public:
+  MachineLock() {
+    fd_ = ::open("/tmp/alc_linuxcnc_sim.flock", O_RDWR | O_CREAT, 0666);
+    for (int i = 0; i < 1800 && fd_ >= 0; ++i) {
+      if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    FAIL("another LinuxCNC simulator test held /tmp/alc_linuxcnc_sim.flock for 3 minutes");
+  }
+  ~MachineLock() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+TEST_CASE("linuxcnc simulator: offsets sent over linuxcncrsh are applied and read back", "[linuxcnc][sim]") {
+  require_program("linuxcnc");
+  require_program("linuxcncrsh");
+  if (std::filesystem::exists("/tmp/linuxcnc.lock"))
+    WARN("/tmp/linuxcnc.lock exists: a LinuxCNC instance may be running; the linuxcnc script will clean it up");
+  const MachineLock lock;
+  const auto dir = alc::nc::test::fresh_dir("sim");
+  const int port = 20000 + static_cast<int>(::getpid() % 20000);
+  Simulator sim(dir, port);
+  LinuxcncrshOptions options;
+  options.port = port;
+  options.timeout_s = 20.0;
+  LinuxcncrshClient client(options);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(90);
+  while (!client.connected()) {
+    if (!sim.running()) FAIL("linuxcnc exited before linuxcncrsh listened; its log:\n" << sim.log());
+    if (std::chrono::steady_clock::now() > deadline) {
+      sim.stop(nullptr);
+      FAIL("linuxcncrsh did not listen on port " << port << " within 90 s; log:\n" << sim.log());
+    }
+    try {
+      client.connect();
+    } catch (const SinkError&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+  }
+  try {
+    client.set("estop off");
+    client.set("machine on");
+    client.set("home -1");
+    for (int i = 0; i < 100 && client.request("get joint_homed").rfind("JOINT_HOMED YES YES YES YES YES", 0) != 0; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    client.close();  // the sink opens its own session
+    LinuxcncrshSink sink(options);
+    CommandQueue queue;
+    const std::vector<NcCommand> commands{offsets(0.0123, -0.004, 0.01, 0.001, {}, -0.002), ProbeInterval{30.0, {}},
+                                          offsets(0.00004, -0.00004, 0.00005, -0.00005, {}, 0.00015),
+                                          offsets(-0.1, 0.1, -0.1, 0.01, {}, -0.01), offsets(0, 0, 0, 0.0, {}, 0)};
+    for (const NcCommand& c : commands) {
+      queue.push(c);
+      const DeliveryReport r = queue.flush(sink);  // the sink reads pos_offset back and compares
+      INFO("command " << to_json_line(c) << ": " << r.error);
+      REQUIRE(r.ok());
+      REQUIRE(r.delivered == 1);
+    }
+    // And once more by hand, independent of the sink's own check.
+    queue.push(offsets(0.0421, -0.0077, 0.0009, -0.0042, {}, 0.0063));
+    REQUIRE(queue.flush(sink).ok());
+    LinuxcncrshClient check(options);
+    check.connect();
+    const auto got = check.position_offsets();
+    const double want[6] = {0.0421, -0.0077, 0.0009, -0.0042, 0.0, 0.0063};
+    for (int i = 0; i < 6; ++i) CHECK_THAT(got[static_cast<std::size_t>(i)], WithinAbs(want[i], kReadBackTol));
+    sim.stop(&check);
+  } catch (...) {
+    sim.stop(nullptr);
+    throw;
+  }
+  CHECK_FALSE(sim.running());
+  std::filesystem::remove_all(dir);
+}
