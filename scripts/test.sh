@@ -2,6 +2,8 @@
 # The whole test suite: a release build and an ASan+UBSan build, each run through CTest.
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 ensure_packages "${ALC_PACKAGES[@]}"
+# LinuxCNC (rs274 and the headless simulator) for the nc_interface tests; large, so only here.
+ensure_packages linuxcnc-uspace
 status=0
 build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release
 ctest --test-dir "$ALC_ROOT/build/test-release" -j "$ALC_JOBS" --output-on-failure || status=1
