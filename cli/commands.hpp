@@ -17,4 +17,7 @@ void add_nc_command(CLI::App& app);
 // alc db: inspect, check, export and benchmark a history database (cli/cmd_db.cpp).
 void add_db_command(CLI::App& app);
 
+// alc simulate: built-in load cases of the thermal twin to scenario CSV (cli/cmd_simulate.cpp).
+void add_simulate_command(CLI::App& app);
+
 }  // namespace alc::cli

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("alc ") + ALC_VERSION);
   app.require_subcommand(1);
   // Commands register here, one line each.
+  alc::cli::add_simulate_command(app);
   alc::cli::add_db_command(app);
   alc::cli::add_nc_command(app);
 

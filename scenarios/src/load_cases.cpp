@@ -156,14 +156,14 @@ std::vector<double> spindle_speed_series(std::size_t samples, double step_s, See
     double end_h;
     double rpm;  // < 0: random jobs
   };
-  const std::vector<Block> program = {{1.0, 0.0},   {3.5, 3000.0}, {5.5, 6000.0}, {7.0, 0.0},  {9.0, 9000.0},
+  const std::vector<Block> program = {{1.0, 0.0},   {3.5, 3000.0}, {5.5, 6000.0}, {7.0, 0.0},  {9.0, 8000.0},
                                       {12.0, 0.0},  {20.0, -1.0},  {30.0, 0.0},   {42.0, -1.0}, {46.5, 0.0}};
   std::vector<double> speed(samples, 0.0);
   std::size_t k = 0;
   for (const Block& b : program) {
     while (k < samples && static_cast<double>(k) * step_s < b.end_h * kHour) {
       const bool jobs = b.rpm < 0.0;
-      const double rpm = jobs ? (random.chance(0.2) ? 0.0 : quantise(random.uniform(1500.0, 10000.0), 100.0)) : b.rpm;
+      const double rpm = jobs ? (random.chance(0.2) ? 0.0 : quantise(random.uniform(1500.0, 8000.0), 100.0)) : b.rpm;
       const double end_s = jobs ? std::min(static_cast<double>(k) * step_s + 60.0 * random.uniform(10.0, 60.0), b.end_h * kHour)
                                 : b.end_h * kHour;
       for (; k < samples && static_cast<double>(k) * step_s < end_s; ++k) speed[k] = rpm;
@@ -269,10 +269,10 @@ LoadCaseSpec load_case_spec(std::string_view name) {
     prod.working_days = 5;
   } else if (name == "C") {
     hall.base_C = 22.0;
-    hall.daily_amplitude_K = 1.2;
+    hall.daily_amplitude_K = 1.6;
     prod.job_min_min = 2.0;
     prod.job_max_min = 20.0;
-    prod.idle_share = 0.3;
+    prod.idle_share = 0.2;
     prod.working_days = 6;
   } else {  // D
     hall.base_C = 20.5;

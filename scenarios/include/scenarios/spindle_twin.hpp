@@ -34,9 +34,9 @@ struct SpindleTwinParams {
   std::array<double, kSpindleNodes> capacity_J_per_K = {
       2.0e4, 1.5e4, 6.0e4, 3.0e4, 1.5e5, 1.5e5, 8.0e5, 1.4e6, 2.0e6, 5.0e4, 2.0e5};  // [J/K]
   // Heat at reference speed, rising with (n / speed_ref_rpm)^exponent.
-  double front_bearing_power_W = 170.0;  // [W]
-  double rear_bearing_power_W = 80.0;    // [W]
-  double motor_power_W = 260.0;          // [W] losses
+  double front_bearing_power_W = 110.0;  // [W]
+  double rear_bearing_power_W = 50.0;     // [W]
+  double motor_power_W = 180.0;          // [W] losses
   double speed_ref_rpm = 6000.0;         // [rpm]
   double bearing_exponent = 1.7;         // [-]
   double motor_exponent = 1.2;           // [-]
@@ -46,9 +46,9 @@ struct SpindleTwinParams {
       //  fb     rb     motor  shaft  hsgF   hsgR   head   colT   colB   cool chill
       {{  0.2,   0.0,   0.0,   0.3,   0.6,   -0.4,  0.8,   -0.9,  0.6,   0.0, 0.0}},  // E_X1
       {{  0.4,   -0.2,  0.0,   0.3,   1.2,   -0.6,  1.6,   -2.2,  1.2,   0.0, 0.0}},  // E_Y1
-      {{  -2.0,  0.0,   -0.5,  -3.0,  -1.8,  -0.8,  -1.6,  -1.8,  -0.8,  0.0, 0.0}},  // E_Z1
+      {{  -1.2,  0.0,   -0.3,  -2.0,  -1.2,  -0.5,  -1.2,  -1.5,  -0.6,  0.0, 0.0}},  // E_Z1
       {{  0.3,   0.0,   0.0,   0.5,   0.9,   -0.6,  1.2,   -1.2,  0.7,   0.0, 0.0}},  // E_X2
-      {{  -2.2,  0.0,   -0.5,  -3.6,  -2.0,  -0.8,  -1.6,  -1.8,  -0.8,  0.0, 0.0}},  // E_Z2
+      {{  -1.3,  0.0,   -0.3,  -2.4,  -1.3,  -0.5,  -1.2,  -1.5,  -0.6,  0.0, 0.0}},  // E_Z2
   }};
   // Mild nonlinearity: bearing preload grows with the front bearing-to-housing difference.
   std::array<double, kSpindleErrors> quadratic = {0.0, 0.02, -0.08, 0.0, -0.09};  // [µm/K²]

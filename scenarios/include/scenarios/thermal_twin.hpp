@@ -77,12 +77,12 @@ struct ThermalTwinParams {
   // Air, liquids and the chiller do not deform the structure: their columns are zero.
   ErrorGains gains = {{
       //  bearing table  cradle  bed    column  ws   cool chill fluid
-      {{  0.6,   0.6,   1.0,   -1.6,   2.6,   0.0, 0.0, 0.0, 0.0}},  // E_X0C [µm/K]
-      {{  1.4,   0.6,   2.4,   -1.0,   -1.8,  0.0, 0.0, 0.0, 0.0}},  // E_Y0C [µm/K]
+      {{  1.0,   0.8,   1.4,   -1.6,   2.6,   0.0, 0.0, 0.0, 0.0}},  // E_X0C [µm/K]
+      {{  1.8,   0.6,   3.0,   -1.0,   -1.8,  0.0, 0.0, 0.0, 0.0}},  // E_Y0C [µm/K]
       {{  1.6,   2.0,   1.6,   1.0,    -3.5,  0.0, 0.0, 0.0, 0.0}},  // E_Z0T [µm/K]
       {{  1.0,   2.9,   0.0,   -1.2,   0.0,   0.0, 0.0, 0.0, 0.0}},  // E_R0T [µm/K]
       {{  2.5,   2.0,   4.0,   -2.5,   -2.0,  0.0, 0.0, 0.0, 0.0}},  // E_A0C [µm/(m K)]
-      {{  1.5,   -1.0,  -2.5,  1.5,    4.5,   0.0, 0.0, 0.0, 0.0}},  // E_B0C [µm/(m K)]
+      {{  2.5,   -0.5,  1.0,   1.5,    4.5,   0.0, 0.0, 0.0, 0.0}},  // E_B0C [µm/(m K)]
       {{  5.0,   3.0,   -1.5,  -1.0,   0.0,   0.0, 0.0, 0.0, 0.0}},  // E_C0C [µm/(m K)]
   }};
   // Mild nonlinearity: bending of the cradle grows with the square of its vertical gradient.

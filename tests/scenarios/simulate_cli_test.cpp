@@ -1,0 +1,145 @@
+// `alc simulate` end to end: runs the built binary (ALC_CLI_PATH) and reads what it wrote.
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <sys/wait.h>
+
+#include "scenarios/load_cases.hpp"
+#include "scenarios/scenario_csv.hpp"
+
+namespace sc = alc::scenarios;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+fs::path work_dir() {
+  const fs::path dir = fs::temp_directory_path() / "alc_simulate_cli_test";
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Runs `alc ARGS` with stdout and stderr captured in files.
+CliResult run_alc(const std::string& args) {
+  const fs::path dir = work_dir();
+  const std::string command = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >\"" + (dir / "stdout").string() +
+                              "\" 2>\"" + (dir / "stderr").string() + "\"";
+  const int status = std::system(command.c_str());
+  CliResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(dir / "stdout");
+  r.err = slurp(dir / "stderr");
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("alc simulate: --case C --out writes a file that the reader loads, equal to the library's case") {
+  const fs::path file = work_dir() / "c.csv";
+  const CliResult r = run_alc("simulate --case C --out \"" + file.string() + "\"");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const sc::Scenario read = sc::read_scenario_csv(file);
+  const sc::Scenario expected = sc::simulate_case("C").scenario;
+  CHECK(read.input_names == expected.input_names);
+  CHECK(read.output_names == expected.output_names);
+  CHECK(read.time_s == expected.time_s);
+  CHECK(read.inputs == expected.inputs);
+  CHECK(read.outputs.rows() == expected.outputs.rows());
+}
+
+TEST_CASE("alc simulate: --seed changes the file, the same seed reproduces it byte for byte") {
+  const fs::path a = work_dir() / "a1.csv", b = work_dir() / "a2.csv", c = work_dir() / "a3.csv";
+  REQUIRE(run_alc("simulate --case A --seed 5 --out \"" + a.string() + "\"").exit_code == 0);
+  REQUIRE(run_alc("simulate --case A --seed 5 --out \"" + b.string() + "\"").exit_code == 0);
+  REQUIRE(run_alc("simulate --case A --seed 6 --out \"" + c.string() + "\"").exit_code == 0);
+  CHECK(slurp(a) == slurp(b));
+  CHECK(slurp(a) != slurp(c));
+}
+
+TEST_CASE("alc simulate: --truth writes the noiseless truth with an error at every sample") {
+  const fs::path file = work_dir() / "s16_truth.csv";
+  REQUIRE(run_alc("simulate --case S16 --truth \"" + file.string() + "\"").exit_code == 0);
+  const sc::Scenario truth = sc::read_scenario_csv(file);
+  CHECK(truth.output_names.size() == 5);
+  CHECK(truth.input_index("node_front_bearing") >= 0);
+  CHECK_FALSE(truth.outputs.hasNaN());
+}
+
+TEST_CASE("alc simulate: --list prints one line per case") {
+  const CliResult r = run_alc("simulate --list");
+  REQUIRE(r.exit_code == 0);
+  for (const std::string name : {"A  192 h", "B  192 h", "C  192 h", "D  192 h", "S16  46 h"})
+    CHECK_THAT(r.out, Catch::Matchers::Contains(name));
+}
+
+TEST_CASE("alc simulate: --case all --summary prints the figures of A-D") {
+  const CliResult r = run_alc("simulate --case all --summary");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK_THAT(r.out, Catch::Matchers::Contains("E_X0C peak / P99 [µm]"));
+  CHECK_THAT(r.out, Catch::Matchers::Contains("E_C0C peak / P99 [µm/m]"));
+  for (const std::string row : {"| A | 101 | 192.0 |", "| B |", "| C |", "| D |"})
+    CHECK_THAT(r.out, Catch::Matchers::Contains(row));
+  CHECK_THAT(r.out, !Catch::Matchers::Contains("| S16 |"));
+}
+
+TEST_CASE("alc simulate: usage errors go to stderr with a non-zero exit") {
+  SECTION("unknown case") {
+    const CliResult r = run_alc("simulate --case E --out x.csv");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("unknown --case 'E'"));
+    CHECK(r.out.empty());
+  }
+  SECTION("no case") {
+    const CliResult r = run_alc("simulate --summary");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("give --case"));
+  }
+  SECTION("nothing to do") {
+    const CliResult r = run_alc("simulate --case A");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("nothing to do"));
+  }
+  SECTION("--out with all cases") {
+    const CliResult r = run_alc("simulate --case all --out x.csv");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("--case all"));
+  }
+  SECTION("a bad seed") {
+    const CliResult r = run_alc("simulate --case A --seed many --out x.csv");
+    CHECK(r.exit_code != 0);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("--seed"));
+  }
+  SECTION("--list with --case") {
+    const CliResult r = run_alc("simulate --list --case A");
+    CHECK(r.exit_code != 0);
+    CHECK(!r.err.empty());
+  }
+  SECTION("an unknown option") {
+    const CliResult r = run_alc("simulate --case A --bogus");
+    CHECK(r.exit_code != 0);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("bogus"));
+  }
+  CHECK_FALSE(fs::exists("x.csv"));
+}
+
+TEST_CASE("alc simulate --help describes every option") {
+  const CliResult r = run_alc("simulate --help");
+  REQUIRE(r.exit_code == 0);
+  for (const std::string option : {"--case", "--out", "--truth", "--seed", "--list", "--summary"})
+    CHECK_THAT(r.out, Catch::Matchers::Contains(option));
+}
