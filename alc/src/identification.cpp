@@ -100,19 +100,24 @@ class OutputData {
       Eigen::VectorXd w_fit = w_;
       Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
       for (Index r = 3; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
-      const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, options_.ridge, 1);
+      const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, selection_ridge(), 1);
       if (!fit.ok || !(w_val.sum() > 0.0)) return kInf;
       const Eigen::VectorXd r = y_ - phi * fit.theta;
       const double sse = (w_val.array() * r.array().square()).sum() / w_val.sum();
       return std::log(sse + floor_) + 0.01 * p;  // 1 % per parameter breaks ties towards the simpler
     }
-    const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_, options_.ridge, 1);
+    const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_, selection_ridge(), 1);
     if (!fit.ok) return kInf;
     const double penalty = options_.criterion == StructureCriterion::AIC ? 2.0 : std::log(m);
     return m * std::log(fit.weighted_rss / fit.weight_sum + floor_) + penalty * p;
   }
 
  private:
+  // The structure is chosen on nearly unbiased fits; the final fit shrinks with options.ridge. A
+  // strong ridge in the search leaves structured residuals that more inputs and poles then chase.
+  double selection_ridge() const { return std::min(options_.ridge, kSelectionRidge); }
+  static constexpr double kSelectionRidge = 1e-6;
+
   const std::vector<std::vector<Eigen::VectorXd>>& lags_;  // [input][grid pole] at the probe samples
   std::vector<Index> pos_;                                   // probe sample position of each row
   Eigen::VectorXd y_;

@@ -18,7 +18,7 @@ double grid_tau(int g, const IdentificationOptions& o = {}) {
 }
 
 // For noiseless data of an exactly representable system: plain least squares without ridge (the
-// default relative ridge 1e-6 biases the gains by ~1e-5 µm).
+// default relative ridge 1e-5 biases the gains by ~5e-4 µm).
 IdentificationOptions exact_options() {
   IdentificationOptions o;
   o.robust_loss = RobustLoss::None;
@@ -53,7 +53,7 @@ TEST_CASE("identify: recovers a known order-2 system from noiseless probes (CP 5
   CHECK_THAT(fit.outputs[0].residual_rms, WithinAbs(0.0, kTol));
   CHECK(fit.outputs[0].inputs_chosen == std::vector<std::string>{"T_ENV", "n_C"});
 
-  constexpr double kRidgeTol = 1e-4;  // [µm] with the default ridge
+  constexpr double kRidgeTol = 1e-3;  // [µm] with the default relative ridge 1e-5 (bias ~5e-4)
   const FitResult with_ridge = identify(h, names_of(truth), probes, IdentificationOptions{});
   REQUIRE(with_ridge.usable);
   REQUIRE(with_ridge.model.outputs[0].parameters.size() == 5);

@@ -59,7 +59,7 @@ struct IdentificationOptions {
   StructureCriterion criterion = StructureCriterion::BIC;
   bool select_inputs = true;                 // drop inputs that do not help (p-values / Lasso)
   int max_inputs = 8;                        // upper bound of inputs kept after selection
-  double ridge = 1e-6;                       // [-] relative Tikhonov regularisation
+  double ridge = 1e-5;                       // [-] relative Tikhonov regularisation of the final fit
   RobustLoss robust_loss = RobustLoss::Huber;
   double robust_scale_lin = 1.0;             // [µm] Huber/Cauchy scale for linear errors
   double robust_scale_ang = 3.0;             // [µm/m] for angular errors
