@@ -94,7 +94,7 @@ void add_nc_command(CLI::App& app) {
             "Reads stdin (or --in), checks the machine's safety limits, writes to stdout, a spool\n"
             "directory, or a running LinuxCNC (linuxcncrsh, localhost only). See docs/nc.md.");
   cmd->add_option("--dialect", args->dialect, "linuxcnc, fanuc, sinumerik or heidenhain")->required();
-  cmd->add_option("--machine", args->machine, "machine config (TOML): kinematics, [nc] options, [limits]");
+  cmd->add_option("--machine", args->machine, "machine config (TOML): kinematics, [nc], [limits]; see nc_interface/machine.example.toml");
   cmd->add_option("--in", args->input, "commands file (JSON lines); default stdin");
   cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
       ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));

@@ -416,3 +416,13 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("split into 20 steps"));
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("machine config: the shipped example reads and equals the defaults", "[nc][config]") {
+  const MachineConfig c = read_machine_config(std::filesystem::path(ALC_SOURCE_DIR) / "nc_interface/machine.example.toml");
+  const MachineConfig d;
+  CHECK(c.chain.workpiece_point_mm == d.chain.workpiece_point_mm);
+  CHECK(c.limits.max_step.c_deg == d.limits.max_step.c_deg);
+  CHECK(c.limits.max_offset.x_mm == d.limits.max_offset.x_mm);
+  CHECK(c.nc.linuxcnc_interval_parameter == d.nc.linuxcnc_interval_parameter);
+  CHECK_THROWS_WITH(read_machine_config("/nonexistent/m.toml"), Contains("/nonexistent/m.toml") && Contains("cannot open"));
+}
