@@ -269,10 +269,11 @@ LoadCaseSpec load_case_spec(std::string_view name) {
     prod.working_days = 5;
   } else if (name == "C") {
     hall.base_C = 22.0;
-    hall.daily_amplitude_K = 1.6;
+    hall.daily_amplitude_K = 2.2;
     prod.job_min_min = 2.0;
     prod.job_max_min = 20.0;
-    prod.idle_share = 0.2;
+    prod.speed_min_rpm = 300.0;
+    prod.idle_share = 0.1;
     prod.working_days = 6;
   } else {  // D
     hall.base_C = 20.5;
@@ -292,8 +293,9 @@ LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed) {
   auto production_random = stream(seed, kProductionStream);
   auto fluid_random = stream(seed, kFluidStream);
   auto drift_random = stream(seed, kDriftStream);
-  const std::vector<double> ambient = ambient_series(spec.ambient, n, step, 0.0, ambient_random);
-  const std::vector<double> speed = speed_series(spec.production, n, step, 0.0, 10.0, production_random);
+  const double start_s = spec.start_h * kHour;
+  const std::vector<double> ambient = ambient_series(spec.ambient, n, step, start_s, ambient_random);
+  const std::vector<double> speed = speed_series(spec.production, n, step, start_s, 10.0, production_random);
   const std::vector<bool> fluid = fluid_series(spec.fluid, n, step, fluid_random);
   LoadProfile profile;
   profile.time_s = uniform_times(n, step);

@@ -196,8 +196,9 @@ TEST_CASE("load cases: production patterns differ as described") {
       if (run.profile.loads[k].speed_rpm > 0.0 && when(run.profile.time_s[k])) h += run.info.step_s / 3600.0;
     return h;
   };
-  const auto at_night = [](double t) { return std::fmod(t / 3600.0, 24.0) < 5.0; };
-  const auto on_sunday = [](double t) { return t >= 6 * 86400.0 && t < 7 * 86400.0; };
+  const double start_s = sc::load_case_spec("B").start_h * 3600.0;  // after Monday 00:00
+  const auto at_night = [&](double t) { return std::fmod((start_s + t) / 3600.0, 24.0) < 5.0; };
+  const auto on_sunday = [&](double t) { return start_s + t >= 6 * 86400.0 && start_s + t < 7 * 86400.0; };
   const auto a = sc::simulate_case("A"), b = sc::simulate_case("B"), c = sc::simulate_case("C");
   CHECK(hours_running(a, at_night) > 20.0);         // A runs round the clock
   CHECK(hours_running(b, at_night) == 0.0);         // B stops at night

@@ -59,7 +59,7 @@ struct ProductionPattern {
   double idle_share = 0.15;        // [-] share of jobs that are standstill (setup, loading)
   double shift_start_h = 0.0;      // [h] production hours on working days
   double shift_end_h = 24.0;       // [h]
-  int working_days = 7;            // [-] 7: every day, 5: Mon–Fri (the run starts on a Monday 00:00)
+  int working_days = 7;            // [-] 7: every day, 5: Mon–Fri (the week starts on Monday 00:00)
 };
 
 // Cutting-fluid supply (case D): on and off intervals with log-uniform lengths.
@@ -104,6 +104,7 @@ struct LoadCaseSpec {
   SensorParams sensors;
   DriftParams drift;
   ThermalTwinParams twin;  // reference_temperature_C is replaced by the start equilibrium
+  double start_h = 8.0;    // [h] after Monday 00:00: when the run (and its calibration phase) starts
 };
 
 // The specification of case A, B, C or D; throws std::invalid_argument for another name.
@@ -111,7 +112,7 @@ LoadCaseSpec load_case_spec(std::string_view name);
 
 // What happened to the machine, sample by sample (before any sensor saw it).
 struct LoadProfile {
-  std::vector<double> time_s;         // [s] from 0, uniform
+  std::vector<double> time_s;         // [s] from 0 (= LoadCaseSpec::start_h), uniform
   std::vector<ThermalLoad> loads;     // loads[k] acts from time_s[k] for one step
   Eigen::MatrixXd drift;              // samples x errors [µm] / [µm/m]
 };
