@@ -29,6 +29,18 @@ std::string hex32(std::int32_t value) {
   return text;
 }
 
+[[noreturn]] void refuse_foreign_id(const fs::path& file, std::int32_t application_id) {
+  throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                     "an SQLite database of another program: application_id " + hex32(application_id) +
+                         ", ALC's is " + hex32(kApplicationId) + "; left untouched");
+}
+
+[[noreturn]] void refuse_newer(const fs::path& file, int version) {
+  throw StorageError(StorageErrorKind::NewerSchema, file,
+                     "schema version " + std::to_string(version) + " is newer than this alc (" +
+                         std::to_string(kSchemaVersion) + "); use a newer alc; left untouched");
+}
+
 StorageErrorKind kind_of_errno(int err, StorageErrorKind fallback) {
   switch (err) {
     case EACCES: case EPERM: case EROFS: return StorageErrorKind::ReadOnly;
@@ -251,14 +263,8 @@ HeaderFacts inspect_header(const fs::path& file) {
                            std::to_string(page_size) + " bytes but the file has " + std::to_string(size) + " bytes");
   facts.user_version = static_cast<std::int32_t>(big_endian_u32(&header[60]));
   facts.application_id = static_cast<std::int32_t>(big_endian_u32(&header[68]));
-  if (facts.application_id != 0 && facts.application_id != kApplicationId)
-    throw StorageError(StorageErrorKind::ForeignDatabase, file,
-                       "an SQLite database of another program: application_id " + hex32(facts.application_id) +
-                           ", ALC's is " + hex32(kApplicationId) + "; left untouched");
-  if (facts.application_id == kApplicationId && facts.user_version > kSchemaVersion)
-    throw StorageError(StorageErrorKind::NewerSchema, file,
-                       "schema version " + std::to_string(facts.user_version) + " is newer than this alc (" +
-                           std::to_string(kSchemaVersion) + "); use a newer alc; left untouched");
+  if (facts.application_id != 0 && facts.application_id != kApplicationId) refuse_foreign_id(file, facts.application_id);
+  if (facts.application_id == kApplicationId && facts.user_version > kSchemaVersion) refuse_newer(file, facts.user_version);
   return facts;
 }
 
@@ -305,10 +311,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   // Authoritative checks through SQLite (the header may be stale while a WAL holds changes).
   const auto application_id = static_cast<std::int32_t>(db->query_int("PRAGMA application_id"));
   const auto version = static_cast<int>(db->query_int("PRAGMA user_version"));
-  if (application_id != 0 && application_id != kApplicationId)
-    throw StorageError(StorageErrorKind::ForeignDatabase, file,
-                       "an SQLite database of another program: application_id " + hex32(application_id) +
-                           ", ALC's is " + hex32(kApplicationId) + "; left untouched");
+  if (application_id != 0 && application_id != kApplicationId) refuse_foreign_id(file, application_id);
   if (application_id == 0) {
     Statement tables(*db, "SELECT name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' ORDER BY name LIMIT 5");
     std::string names;
@@ -321,10 +324,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
     version_found = 0;
     return db;
   }
-  if (version > kSchemaVersion)
-    throw StorageError(StorageErrorKind::NewerSchema, file,
-                       "schema version " + std::to_string(version) + " is newer than this alc (" +
-                           std::to_string(kSchemaVersion) + "); use a newer alc; left untouched");
+  if (version > kSchemaVersion) refuse_newer(file, version);
   if (version < 1)
     throw StorageError(StorageErrorKind::Corrupt, file, "ALC's application_id but no schema version");
   version_found = version;
