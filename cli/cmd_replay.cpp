@@ -2,6 +2,7 @@
 // indicators beside a static baseline.
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -11,7 +12,10 @@
 #include "commands.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/replay.hpp"
+#include "scenarios/replay_history.hpp"
 #include "scenarios/scenario_csv.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/schema.hpp"
 
 namespace alc::cli {
 
@@ -43,6 +47,10 @@ struct ReplayArgs {
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;
   bool no_refit = false;
+  std::string db;              // history database, "" = none
+  double stop_at_h = kInf;     // [h] of scenario time
+  bool resume = false;
+  double kill_at_h = kInf;     // [h] fault injection for tests: SIGKILL itself at this scenario time
   std::string residuals;
 };
 
@@ -153,6 +161,102 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, sce
   }
 }
 
+// The run's configuration as stored in the history (and compared on --resume).
+std::string config_json(const ReplayArgs& a, const std::string& source) {
+  auto tab1 = [](const std::string& text) { return text; };
+  nlohmann::json j = {{"source", source},
+                      {"cp_h", tab1(a.cp)},
+                      {"cp_interval_min", tab1(a.cp_interval)},
+                      {"interval_h", tab1(a.interval)},
+                      {"ng_interval_min", tab1(a.ng_interval)},
+                      {"ng_meas", tab1(a.ng_meas)},
+                      {"update_h", tab1(a.update)},
+                      {"acl_lin_um", a.acl_lin},
+                      {"acl_ang_um_per_m", a.acl_ang},
+                      {"window_h", a.window},
+                      {"half_life_h", a.half_life},
+                      {"method", a.method},
+                      {"max_order", a.max_order},
+                      {"refit_on_probe", !a.no_refit}};
+  if (a.seed_given) j["seed"] = a.seed;
+  return j.dump();
+}
+
+// Forwards to the history recorder; kills the process at a scenario time (fault injection).
+struct KillSwitch : scenarios::ReplayObserver {
+  scenarios::ReplayObserver* next = nullptr;
+  double kill_at_s = kInf;
+  void on_sample(std::size_t row, double t, const Eigen::VectorXd& u, const ControllerOutput& out) override {
+    if (next) next->on_sample(row, t, u, out);
+  }
+  void on_probe(std::size_t row, const ProbeMeasurement& p, const ControllerOutput& out) override {
+    if (next) next->on_probe(row, p, out);
+  }
+  void on_row_done(const scenarios::ReplaySession& session) override {
+    if (next) next->on_row_done(session);
+    if (session.controller().state().now_s >= kill_at_s) std::raise(SIGKILL);
+  }
+};
+
+// Replays one scenario, recording it in the history database if one is given.
+// Returns nullopt when the run stopped early (--stop-at).
+std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const AlcParameters& params,
+                                                   const std::string& source, const scenarios::Scenario& scenario) {
+  const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
+  const double stop_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
+  KillSwitch kill;
+  kill.kill_at_s = std::isfinite(a.kill_at_h) ? t0 + a.kill_at_h * 3600.0 : kInf;
+  if (a.db.empty()) {
+    scenarios::ReplaySession session(scenario, params);
+    session.run(stop_s, &kill);
+    return session;
+  }
+  storage::WriterOptions options;
+  options.create_directories = true;
+  storage::HistoryWriter writer(a.db, options);
+  const std::string config = config_json(a, source);
+  storage::RunId run = 0;
+  std::optional<scenarios::ReplaySession> session;
+  if (a.resume) {
+    std::optional<storage::RunRecord> found;
+    for (const auto& r : storage::HistoryReader(a.db).runs())
+      if (r.source == source && (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
+        found = r;
+    if (!found) throw UsageError(a.db + ": no unfinished run of '" + source + "' to resume");
+    if (found->config_json != config)
+      throw UsageError(a.db + ": run " + std::to_string(found->run_id) + " of '" + source +
+                       "' was started with other parameters: " + found->config_json + "; given: " + config);
+    run = found->run_id;
+    const storage::ResumePoint point = writer.resume_run(run);
+    if (point.snapshot.format != scenarios::kReplayStateFormat)
+      throw std::runtime_error(a.db + ": run " + std::to_string(run) + " has a snapshot of format '" +
+                               point.snapshot.format + "', expected " + scenarios::kReplayStateFormat);
+    session.emplace(scenario, params, scenarios::decode_replay_state(point.snapshot.payload));
+  } else {
+    storage::RunRecord r;
+    r.source = source;
+    r.config_json = config;
+    r.software_version = std::string("alc ") + ALC_VERSION;
+    r.input_names = scenario.input_names;
+    r.output_names = scenario.output_names;
+    run = writer.begin_run(r);
+    session.emplace(scenario, params);
+  }
+  scenarios::HistoryRecorder recorder(writer, run, session->controller());
+  if (!a.resume) recorder.save_snapshot(*session);  // a killed run can always resume
+  kill.next = &recorder;
+  session->run(stop_s, &kill);
+  recorder.save_snapshot(*session);
+  writer.end_run(run, session->finished() ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
+  writer.close();
+  if (!session->finished()) {
+    std::cerr << source << ": stopped at " << a.stop_at_h << " h of scenario time (run " << run << " in " << a.db
+              << "); continue with --resume\n";
+    return std::nullopt;
+  }
+  return session;
+}
+
 void run_replay(const ReplayArgs& a) {
   if (a.file.empty() == a.case_name.empty()) throw UsageError("give exactly one of FILE.csv or --case");
   const AlcParameters params = parameters_from(a);
@@ -174,14 +278,17 @@ void run_replay(const ReplayArgs& a) {
     }
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
+  if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
 
   std::vector<std::pair<std::string, scenarios::ReplayReport>> reports;
   for (const auto& [name, scenario] : cases) {
-    scenarios::ReplaySession session(scenario, params);
-    session.run();
-    reports.emplace_back(name, session.report());
-    if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session.residuals());
+    const std::string source = a.file.empty() ? "case " + name : "file " + name;
+    const auto session = replay_one(a, params, source, scenario);
+    if (!session) continue;
+    reports.emplace_back(name, session->report());
+    if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session->residuals());
   }
+  if (reports.empty()) return;
   if (a.json) {
     if (reports.size() == 1) {
       std::cout << report_json(reports.front().second).dump(2) << "\n";
@@ -233,6 +340,13 @@ void add_replay_command(CLI::App& app) {
   cmd->add_flag("--no-refit", args->no_refit,
                 "Re-identify only at the end of CP, after NG and at --update (the paper's literal reading); "
                 "by default every Post-CP probe within the ACL is learned from too");
+  cmd->add_option("--db", args->db,
+                  "Record the run in this SQLite history database (created if missing; see 'History database')");
+  cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");
+  cmd->add_flag("--resume", args->resume,
+                "Continue the latest unfinished run of this scenario in --db from its saved state");
+  cmd->add_option("--kill-at", args->kill_at_h, "Fault injection for tests: SIGKILL at H hours of scenario time")
+      ->group("");
   cmd->add_flag("--json", args->json, "Print the result as JSON instead of tables");
   cmd->add_option("--residuals", args->residuals,
                   "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "

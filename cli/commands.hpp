@@ -20,4 +20,10 @@ void add_db_command(CLI::App& app);
 // alc simulate: built-in load cases of the thermal twin to scenario CSV (cli/cmd_simulate.cpp).
 void add_simulate_command(CLI::App& app);
 
+// alc replay: a scenario or built-in load case through the ALC controller (cli/cmd_replay.cpp).
+void add_replay_command(CLI::App& app);
+
+// alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
+void add_bench_command(CLI::App& app);
+
 }  // namespace alc::cli

@@ -13,6 +13,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // Commands register here, one line each.
   alc::cli::add_simulate_command(app);
+  alc::cli::add_replay_command(app);
+  alc::cli::add_bench_command(app);
   alc::cli::add_db_command(app);
   alc::cli::add_nc_command(app);
 

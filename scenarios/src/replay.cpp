@@ -118,6 +118,11 @@ void ReplaySession::run(double stop_time_s, ReplayObserver* observer) {
       state_.eval_baseline.push_back(state_.baseline_fitted ? state_.baseline.predict(inputs)
                                                             : Eigen::VectorXd::Zero(n_out));
     }
+    if (observer) {
+      ++state_.next_row;  // the row is done: the state seen by the observer continues after it
+      observer->on_row_done(*this);
+      --state_.next_row;
+    }
   }
   state_.total_s += seconds_since(wall_start);
 }

@@ -59,7 +59,9 @@ Rs274Run run_rs274(const std::filesystem::path& dir, const std::string& program,
   write_text(dir / "params.var", var_before);
   write_text(dir / "program.ngc", program);
   std::filesystem::remove(dir / "canon.txt");
-  const std::string cmd = "cd '" + dir.string() + "' && timeout 60 rs274 -g -t tool.tbl -v params.var program.ngc canon.txt" +
+  // Two standalone interpreters at once crash with SIGBUS (exit 135, seen under ctest -j2): they
+  // share LinuxCNC's fixed shared-memory name. flock(1) runs one at a time across test processes.
+  const std::string cmd = "cd '" + dir.string() + "' && flock /tmp/alc_rs274.lock timeout 60 rs274 -g -t tool.tbl -v params.var program.ngc canon.txt" +
                           " > rs274.log 2>&1";
   const int status = std::system(cmd.c_str());
   Rs274Run r;

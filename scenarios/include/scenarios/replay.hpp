@@ -17,10 +17,14 @@
 
 namespace alc::scenarios {
 
+class ReplaySession;
+
 // Hooks for what the replay does, e.g. history recording or NC output. Default: nothing.
 class ReplayObserver {
  public:
   virtual ~ReplayObserver() = default;
+  // After a row is fully processed (a consistent point to save the session's state).
+  virtual void on_row_done(const ReplaySession& /*session*/) {}
   virtual void on_sample(std::size_t /*row*/, double /*time_s*/, const Eigen::VectorXd& /*inputs*/,
                          const ControllerOutput& /*out*/) {}
   virtual void on_probe(std::size_t /*row*/, const ProbeMeasurement& /*probe*/, const ControllerOutput& /*out*/) {}

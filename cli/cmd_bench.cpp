@@ -1,0 +1,111 @@
+// alc bench: replay speed per load case, the share spent in identification, and the cost of
+// recording the history (replay with --db against replay without, in the same invocation).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <unistd.h>
+
+#include "commands.hpp"
+#include "scenarios/load_cases.hpp"
+#include "scenarios/replay_history.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::cli {
+
+namespace {
+
+struct BenchArgs {
+  std::string case_name = "all";
+  int repeat = 3;
+};
+
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+struct Timing {
+  double replay_s = kInf;          // [s] best of the repeats, no history
+  double identification_s = 0.0;   // [s] in that best run
+  double with_history_s = kInf;    // [s] best of the repeats, recording into a fresh database
+};
+
+Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::filesystem::path& dir) {
+  Timing t;
+  for (int i = 0; i < repeat; ++i) {
+    const double start = now_s();
+    scenarios::ReplaySession session(scenario, AlcParameters{});
+    session.run();
+    const double elapsed = now_s() - start;
+    if (elapsed < t.replay_s) {
+      t.replay_s = elapsed;
+      t.identification_s = session.report().identification_s;
+    }
+  }
+  for (int i = 0; i < repeat; ++i) {
+    const auto db = dir / ("bench-" + std::to_string(i) + ".sqlite");
+    const double start = now_s();
+    {
+      storage::HistoryWriter writer(db);
+      storage::RunRecord r;
+      r.source = "bench";
+      r.input_names = scenario.input_names;
+      r.output_names = scenario.output_names;
+      const auto run = writer.begin_run(r);
+      scenarios::ReplaySession session(scenario, AlcParameters{});
+      scenarios::HistoryRecorder recorder(writer, run, session.controller());
+      recorder.save_snapshot(session);
+      session.run(kInf, &recorder);
+      recorder.save_snapshot(session);
+      writer.end_run(run, storage::RunStatus::Finished);
+    }
+    t.with_history_s = std::min(t.with_history_s, now_s() - start);
+    std::filesystem::remove(db);
+    std::filesystem::remove(db.string() + "-wal");
+    std::filesystem::remove(db.string() + "-shm");
+  }
+  return t;
+}
+
+void run_bench(const BenchArgs& a) {
+  if (a.repeat < 1) throw UsageError("--repeat: must be at least 1, got " + std::to_string(a.repeat));
+  std::vector<std::string> names;
+  if (a.case_name == "all") {
+    for (const auto& info : scenarios::load_cases()) names.push_back(info.name);
+  } else if (scenarios::find_case(a.case_name)) {
+    names.push_back(a.case_name);
+  } else {
+    throw UsageError("--case: unknown load case '" + a.case_name + "'");
+  }
+  const auto dir = std::filesystem::temp_directory_path() / ("alc-bench-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::printf("%-5s %8s %10s %12s %14s %12s %16s %9s\n", "case", "samples", "sim [ms]", "replay [ms]",
+              "ident. share", "µs/sample", "with --db [ms]", "db/plain");
+  for (const auto& name : names) {
+    const double s0 = now_s();
+    const auto simulated = scenarios::simulate_case(name);
+    const double sim_s = now_s() - s0;
+    const Timing t = bench_case(simulated.scenario, a.repeat, dir);
+    const double n = static_cast<double>(simulated.scenario.samples());
+    std::printf("%-5s %8.0f %10.1f %12.1f %13.1f%% %12.2f %16.1f %9.2f\n", name.c_str(), n, sim_s * 1e3,
+                t.replay_s * 1e3, 100.0 * t.identification_s / t.replay_s, t.replay_s / n * 1e6,
+                t.with_history_s * 1e3, t.with_history_s / t.replay_s);
+  }
+  std::filesystem::remove_all(dir);
+  std::printf("best of %d runs each; default parameters (the paper's chosen set)\n", a.repeat);
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench", "Benchmark: replay time per load case, the share spent in identification, and replay with "
+               "the history database against replay without it (ratio), all in one invocation.");
+  cmd->add_option("--case", args->case_name, "A, B, C, D, S16 or all")->capture_default_str();
+  cmd->add_option("--repeat", args->repeat, "Runs per measurement; the best is reported")->capture_default_str();
+  cmd->callback([args] { run_bench(*args); });
+}
+
+}  // namespace alc::cli

@@ -1,0 +1,40 @@
+#pragma once
+// Replay with history: records what the replay saw and decided into the SQLite history
+// (storage/), saves resumable snapshots, and encodes the replay state bit for bit.
+#include <cstdint>
+#include <string>
+
+#include "scenarios/replay.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::scenarios {
+
+// Exact binary form of a replay state (controller, model, baseline, evaluation so far).
+// Format "alc.replay-state/1"; decode throws std::runtime_error on a truncated or foreign payload.
+inline constexpr const char* kReplayStateFormat = "alc.replay-state/1";
+std::string encode_replay_state(const ReplayState& state);
+ReplayState decode_replay_state(const std::string& payload);
+
+// Writes every sample, prediction, probe, phase change, interval change and identification of a
+// replay into `writer` under `run`, and a snapshot every `snapshot_every_s` of scenario time.
+class HistoryRecorder : public ReplayObserver {
+ public:
+  HistoryRecorder(storage::HistoryWriter& writer, storage::RunId run, const Controller& controller,
+                  double snapshot_every_s = 24 * 3600.0);
+  void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const ControllerOutput& out) override;
+  void on_probe(std::size_t row, const ProbeMeasurement& probe, const ControllerOutput& out) override;
+  // Saves a snapshot when one is due.
+  void on_row_done(const ReplaySession& session) override;
+  // Stores the session's state as a snapshot (commits everything before it).
+  void save_snapshot(const ReplaySession& session);
+
+ private:
+  void record_events(const ControllerOutput& out, double time_s);
+  storage::HistoryWriter& writer_;
+  storage::RunId run_;
+  const Controller& controller_;
+  double snapshot_every_s_;
+  double next_snapshot_s_ = -kInf;
+};
+
+}  // namespace alc::scenarios
