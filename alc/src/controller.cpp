@@ -122,13 +122,12 @@ bool Controller::reidentify(double time_s, ControllerOutput& out, const std::str
   e.time_s = time_s;
   e.from = e.to = state_.phase;
   if (fit.usable) {
-    // The new model runs over the whole input history so that its dynamic state is current.
+    // identify() hands over the predictor state after the whole input history: the new model
+    // continues from the latest sample with its dynamic state current.
     ModelPredictor predictor(fit.model);
-    Eigen::VectorXd prediction = state_.prediction;
-    for (std::size_t i = 0; i < state_.history.time_s.size(); ++i)
-      prediction = predictor.step(state_.history.time_s[i], state_.history.inputs.row(static_cast<Eigen::Index>(i)).transpose());
+    predictor.set_state(fit.predictor_state);
+    state_.prediction = predictor.prediction();
     state_.predictor = std::move(predictor);
-    state_.prediction = prediction;
     state_.has_model = true;
     state_.last_update_s = time_s;
     ++state_.updates;
@@ -256,6 +255,9 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
         ++state_.ng_phases;
         state_.ng_probes = 0;
         change_phase(Phase::NoGood, t, out, "ACL breach on " + output_names_[breaches.front()]);
+        // The model is known to be wrong now: learn from the breaching probe at once instead of
+        // compensating with it for the whole NG burst; the NG update follows with more data.
+        if (params_.refit_on_probe) reidentify(t, out, "ACL breach, immediate update before the NG burst");
         state_.next_probe_due_s = t + params_.ng_interval_s;
         set_interval(params_.ng_interval_s, t, out, "NG interval");
       }

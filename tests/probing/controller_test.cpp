@@ -180,6 +180,21 @@ TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the
   CHECK(d.controller.phase() == Phase::PostCalibration);
 }
 
+TEST_CASE("controller: with refit_on_probe an ACL breach is learned from at once, then again after NG") {
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;
+  Driver d(p);
+  d.run_until(3 * kHour - kMinute);
+  d.plant.offset_x = 12.0;
+  d.run_until(3 * kHour + 31 * kMinute);
+  std::vector<double> update_times;
+  for (const auto& e : d.of_type(ControllerEvent::Type::ModelUpdate)) update_times.push_back(e.time_s);
+  // CP end, the breach itself (3 h), and the end of the 3-probe NG burst (3 h 30).
+  REQUIRE(update_times == std::vector<double>{2 * kHour, 3 * kHour, 3 * kHour + 30 * kMinute});
+  CHECK(d.controller.phase() == Phase::PostCalibration);
+  CHECK(d.controller.state().ng_phases == 1);
+}
+
 TEST_CASE("controller: Post-CP interval inf means no probe after CP") {
   AlcParameters p = test_parameters();
   p.post_cp_interval_s = kInf;

@@ -1,5 +1,6 @@
 // `alc simulate` end to end: runs the built binary (ALC_CLI_PATH) and reads what it wrote.
 #include <catch2/catch.hpp>
+#include <unistd.h>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -27,7 +28,8 @@ std::string slurp(const fs::path& path) {
 }
 
 fs::path work_dir() {
-  const fs::path dir = fs::temp_directory_path() / "alc_simulate_cli_test";
+  // One directory per test process: ctest -j runs the test cases as parallel processes.
+  const fs::path dir = fs::temp_directory_path() / ("alc_simulate_cli_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir;
 }
