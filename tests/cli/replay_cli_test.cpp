@@ -1,0 +1,143 @@
+// alc replay from the command line: JSON shape, --stop-at / --resume, a run killed with SIGKILL,
+// and errors. Runs the built program.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+  int exit_code = -1;
+  int signal = 0;
+  std::string out, err;
+};
+
+fs::path work_dir() {
+  const fs::path dir = fs::temp_directory_path() / ("alc_replay_cli_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Run alc(const std::string& args) {
+  const fs::path dir = work_dir();
+  const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >\"" + (dir / "out").string() +
+                          "\" 2>\"" + (dir / "err").string() + "\"";
+  const int status = std::system(cmd.c_str());
+  Run r;
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  // /bin/sh reports a child killed by signal N as exit status 128 + N.
+  if (r.exit_code > 128) r.signal = r.exit_code - 128;
+  r.out = slurp(dir / "out");
+  r.err = slurp(dir / "err");
+  return r;
+}
+
+nlohmann::json indicators_of(const std::string& text) {
+  nlohmann::json j = nlohmann::json::parse(text);
+  return j;
+}
+
+}  // namespace
+
+TEST_CASE("alc replay --json has the documented shape") {
+  const Run r = alc("replay --case C --json");
+  REQUIRE(r.exit_code == 0);
+  const auto j = indicators_of(r.out);
+  for (const char* key : {"outputs", "Pd", "M", "ng_phases", "updates", "baseline"}) CHECK(j.contains(key));
+  for (const char* e : {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C"}) {
+    REQUIRE(j["outputs"].contains(e));
+    for (const char* f : {"PV", "RMSE", "P99", "SMAPE", "P99_uncompensated"}) {
+      CHECK(j["outputs"][e].contains(f));
+      CHECK(j["baseline"]["outputs"][e].contains(f));
+    }
+  }
+}
+
+TEST_CASE("alc replay --stop-at then --resume gives the indicators of an uninterrupted run") {
+  const fs::path db = work_dir() / "stop.sqlite";
+  fs::remove(db);
+  const Run whole = alc("replay --case B --json");
+  REQUIRE(whole.exit_code == 0);
+  const Run stopped = alc("replay --case B --json --db \"" + db.string() + "\" --stop-at 40");
+  REQUIRE(stopped.exit_code == 0);
+  CHECK(stopped.out.empty());
+  CHECK_THAT(stopped.err, Catch::Matchers::Contains("stopped at 40 h"));
+  const Run resumed = alc("replay --case B --json --db \"" + db.string() + "\" --resume");
+  INFO(resumed.err);
+  REQUIRE(resumed.exit_code == 0);
+  CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
+  CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
+  // Nothing left to resume now.
+  const Run again = alc("replay --case B --json --db \"" + db.string() + "\" --resume");
+  CHECK(again.exit_code == 2);
+  CHECK_THAT(again.err, Catch::Matchers::Contains("no unfinished run of 'case B'"));
+}
+
+TEST_CASE("alc replay killed with SIGKILL mid-run leaves a sound history that --resume finishes identically") {
+  const fs::path db = work_dir() / "killed.sqlite";
+  fs::remove(db);
+  const Run whole = alc("replay --case D --json");
+  REQUIRE(whole.exit_code == 0);
+  const Run killed = alc("replay --case D --json --db \"" + db.string() + "\" --kill-at 100");
+  CHECK(killed.signal == 9);
+  CHECK(killed.out.empty());
+  const Run check = alc("db check \"" + db.string() + "\"");
+  INFO(check.out << check.err);
+  CHECK(check.exit_code == 0);
+  const Run resumed = alc("replay --case D --json --db \"" + db.string() + "\" --resume");
+  INFO(resumed.err);
+  REQUIRE(resumed.exit_code == 0);
+  CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
+  CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
+}
+
+TEST_CASE("alc replay --resume refuses other parameters than the stored run's") {
+  const fs::path db = work_dir() / "params.sqlite";
+  fs::remove(db);
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10").exit_code == 0);
+  const Run r = alc("replay --case A --db \"" + db.string() + "\" --resume --interval 3");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("was started with other parameters"));
+}
+
+TEST_CASE("alc replay: usage errors name the option and value") {
+  const Run bad = alc("replay --case A --interval soon");
+  CHECK(bad.exit_code == 2);
+  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a non-negative number or 'inf'"));
+  const Run neither = alc("replay");
+  CHECK(neither.exit_code == 2);
+  CHECK_THAT(neither.err, Catch::Matchers::Contains("give exactly one of FILE.csv or --case"));
+  const Run nodb = alc("replay --case A --resume");
+  CHECK(nodb.exit_code == 2);
+  const Run unknown = alc("replay --case Z");
+  CHECK(unknown.exit_code == 2);
+  CHECK_THAT(unknown.err, Catch::Matchers::Contains("unknown load case 'Z'"));
+  const Run missing = alc("replay /nonexistent/rec.csv");
+  CHECK(missing.exit_code == 1);
+  CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
+}
+
+TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
+  const fs::path file = work_dir() / "res.csv";
+  REQUIRE(alc("replay --case A --residuals \"" + file.string() + "\"").exit_code == 0);
+  std::ifstream in(file);
+  std::string header;
+  std::getline(in, header);
+  CHECK(header.rfind("time_s,E_X0C,E_X0C_pred,E_Y0C,E_Y0C_pred", 0) == 0);
+  std::string first;
+  std::getline(in, first);
+  CHECK(first.rfind("23400,", 0) == 0);  // the first recorded measurement at the end of CP (6.5 h)
+}

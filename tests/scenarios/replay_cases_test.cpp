@@ -1,0 +1,69 @@
+// What the core issue must show, on the built-in load cases with the paper's chosen set
+// (CP 6.5 h, 5 min, 2 h, NG 10 min x 12, ACL 5 µm / 15 µm/m), default seeds.
+#include <catch2/catch.hpp>
+
+#include "scenarios/load_cases.hpp"
+#include "scenarios/replay.hpp"
+#include "scenarios/replay_history.hpp"
+
+using namespace alc;
+using namespace alc::scenarios;
+
+TEST_CASE("load cases A-D: linear P99 below 5 µm, Pd at least 95.5 %, and the ALC beats the static baseline") {
+  constexpr double kP99LimitUm = 5.0;       // [µm] Eq. 8 of seed 004
+  constexpr double kPdMinPercent = 95.5;    // [%]
+  for (const auto& info : load_cases()) {
+    const auto simulated = simulate_case(info.name);
+    const ReplayReport r = replay(simulated.scenario, AlcParameters{});
+    INFO("case " << info.name << ": linear P99 " << r.mean_p99(ErrorKind::Linear) << " µm, baseline "
+                 << r.mean_p99(ErrorKind::Linear, true) << " µm, Pd " << r.Pd << " %");
+    CHECK(r.mean_p99(ErrorKind::Linear) < kP99LimitUm);
+    CHECK(r.Pd >= kPdMinPercent);
+    CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, true));
+    CHECK(r.mean_p99(ErrorKind::Angular) < r.mean_p99(ErrorKind::Angular, true));
+    CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99_uncompensated(ErrorKind::Linear));
+  }
+}
+
+TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay, and compensation helps on average") {
+  const auto simulated = simulate_case("S16");
+  REQUIRE(simulated.scenario.input_names.size() == 17);
+  REQUIRE(simulated.scenario.output_names.size() == 5);
+  const ReplayReport r = replay(simulated.scenario, AlcParameters{});
+  CHECK(r.outputs.size() == 5);
+  for (const auto& o : r.outputs) CHECK(o.measurements > 20);
+  CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99_uncompensated(ErrorKind::Linear));
+}
+
+TEST_CASE("load case A: the replay state survives encoding at many points and continues bit for bit") {
+  const auto simulated = simulate_case("A");
+  const ReplayReport whole = replay(simulated.scenario, AlcParameters{});
+  for (double stop_h : {0.0, 6.0, 6.5, 7.0, 30.0, 100.25, 191.0}) {
+    ReplaySession first(simulated.scenario, AlcParameters{});
+    first.run(stop_h * 3600.0);
+    const std::string bytes = encode_replay_state(first.state());
+    ReplaySession second(simulated.scenario, AlcParameters{}, decode_replay_state(bytes));
+    second.run();
+    const ReplayReport r = second.report();
+    INFO("stopped at " << stop_h << " h");
+    CHECK(r.M == whole.M);
+    CHECK(r.updates == whole.updates);
+    CHECK(r.ng_phases == whole.ng_phases);
+    for (std::size_t k = 0; k < r.outputs.size(); ++k) {
+      CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
+      CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
+      CHECK(r.outputs[k].SMAPE == whole.outputs[k].SMAPE);
+      CHECK(r.baseline[k].P99 == whole.baseline[k].P99);
+    }
+  }
+}
+
+TEST_CASE("replay state: a truncated or foreign payload is refused") {
+  const auto simulated = simulate_case("A");
+  ReplaySession session(simulated.scenario, AlcParameters{});
+  session.run(10 * 3600.0);
+  const std::string bytes = encode_replay_state(session.state());
+  CHECK_THROWS_WITH(decode_replay_state(bytes.substr(0, bytes.size() / 2)), "replay state: payload is truncated");
+  CHECK_THROWS_WITH(decode_replay_state(bytes + "x"), "replay state: trailing bytes after the payload");
+  CHECK_THROWS_AS(decode_replay_state(std::string(64, '\0')), std::runtime_error);
+}
