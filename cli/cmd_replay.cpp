@@ -4,15 +4,22 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
+#include <vector>
 
 #include "commands.hpp"
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/machine_config.hpp"
+#include "nc_interface/recorder.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/replay.hpp"
 #include "scenarios/replay_history.hpp"
+#include "scenarios/replay_nc.hpp"
 #include "scenarios/scenario_csv.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/schema.hpp"
@@ -52,6 +59,15 @@ struct ReplayArgs {
   bool resume = false;
   double kill_at_h = kInf;     // [h] fault injection for tests: SIGKILL itself at this scenario time
   std::string residuals;
+  std::string nc_out;          // directory for the NC output, "" = none
+  std::string dialect = "linuxcnc";
+  std::string machine;         // machine config (TOML), "" = built-in defaults
+};
+
+// The NC side of a replay: machine config, dialect and where to write.
+struct NcSetup {
+  nc::MachineConfig config;
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;
 };
 
 AlcParameters parameters_from(const ReplayArgs& a) {
@@ -182,31 +198,56 @@ std::string config_json(const ReplayArgs& a, const std::string& source) {
   return j.dump();
 }
 
-// Forwards to the history recorder; kills the process at a scenario time (fault injection).
+// Forwards to the history recorder and the NC observer; kills the process at a scenario time
+// (fault injection).
 struct KillSwitch : scenarios::ReplayObserver {
-  scenarios::ReplayObserver* next = nullptr;
+  std::vector<scenarios::ReplayObserver*> next;
   double kill_at_s = kInf;
   void on_sample(std::size_t row, double t, const Eigen::VectorXd& u, const ControllerOutput& out) override {
-    if (next) next->on_sample(row, t, u, out);
+    for (auto* o : next) o->on_sample(row, t, u, out);
   }
   void on_probe(std::size_t row, const ProbeMeasurement& p, const ControllerOutput& out) override {
-    if (next) next->on_probe(row, p, out);
+    for (auto* o : next) o->on_probe(row, p, out);
   }
   void on_row_done(const scenarios::ReplaySession& session) override {
-    if (next) next->on_row_done(session);
+    for (auto* o : next) o->on_row_done(session);
     if (session.controller().state().now_s >= kill_at_s) std::raise(SIGKILL);
   }
 };
 
+// The NC output directory of one scenario: DIR itself, or DIR/<case> when several are replayed.
+std::filesystem::path nc_dir_of(const ReplayArgs& a, const std::string& name, bool several) {
+  return several ? std::filesystem::path(a.nc_out) / name : std::filesystem::path(a.nc_out);
+}
+
+// Writes the replay's NC output and prints one summary line to stderr.
+void write_nc_output(const std::filesystem::path& dir, const std::string& source, const NcSetup& nc_setup,
+                     const scenarios::NcCommandObserver& observer) {
+  const nc::NcOutputSummary s =
+      nc::write_replay_nc_output(dir, nc_setup.dialect, observer.commands(), nc_setup.config.nc,
+                                 nc_setup.config.limits);
+  std::cerr << source << ": NC output in " << dir.string() << ": " << s.requested << " commands, " << s.refused
+            << " refused, " << s.split << " split, " << s.sent << " written (" << nc::dialect_name(nc_setup.dialect)
+            << ")";
+  if (!observer.maps_any_error()) std::cerr << "; no output named E_X0C … E_C0C, so no axis offsets";
+  if (observer.not_converged())
+    std::cerr << "; " << observer.not_converged() << " moments without a converged compensation";
+  std::cerr << "\n";
+}
+
 // Replays one scenario, recording it in the history database if one is given.
 // Returns nullopt when the run stopped early (--stop-at).
+// With --nc-out, `nc_observer` emits the NC commands (also into the history when --db is given).
 std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const AlcParameters& params,
-                                                   const std::string& source, const scenarios::Scenario& scenario) {
+                                                   const std::string& source, const scenarios::Scenario& scenario,
+                                                   const NcSetup& nc_setup, const std::filesystem::path& nc_dir,
+                                                   scenarios::NcCommandObserver* nc_observer) {
   const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
   const double stop_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
   KillSwitch kill;
   kill.kill_at_s = std::isfinite(a.kill_at_h) ? t0 + a.kill_at_h * 3600.0 : kInf;
   if (a.db.empty()) {
+    if (nc_observer) kill.next.push_back(nc_observer);
     scenarios::ReplaySession session(scenario, params);
     session.run(stop_s, &kill);
     return session;
@@ -244,7 +285,11 @@ std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const Al
   }
   scenarios::HistoryRecorder recorder(writer, run, session->controller());
   if (!a.resume) recorder.save_snapshot(*session);  // a killed run can always resume
-  kill.next = &recorder;
+  kill.next.push_back(&recorder);
+  if (nc_observer) {
+    nc_observer->set_history({&writer, run, "file:" + nc_dir.string(), nc_setup.dialect, nc_setup.config.nc});
+    kill.next.push_back(nc_observer);
+  }
   session->run(stop_s, &kill);
   recorder.save_snapshot(*session);
   writer.end_run(run, session->finished() ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
@@ -279,11 +324,37 @@ void run_replay(const ReplayArgs& a) {
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
+  NcSetup nc_setup;
+  if (!a.nc_out.empty()) {
+    if (a.resume)
+      throw UsageError(
+          "--nc-out cannot be combined with --resume (the safety gate would not know the offsets in force)");
+    const auto dialect = nc::parse_dialect(a.dialect);
+    if (!dialect)
+      throw UsageError("--dialect: '" + a.dialect + "' is not one of linuxcnc, fanuc, sinumerik, heidenhain");
+    nc_setup.dialect = *dialect;
+    if (!a.machine.empty()) {
+      try {
+        nc_setup.config = nc::read_machine_config(a.machine);
+      } catch (const nc::ConfigError& e) {
+        throw UsageError(e.what());
+      }
+    }
+  } else if (a.dialect != "linuxcnc" || !a.machine.empty()) {
+    throw UsageError("--dialect and --machine need --nc-out");
+  }
 
   std::vector<std::pair<std::string, scenarios::ReplayReport>> reports;
   for (const auto& [name, scenario] : cases) {
     const std::string source = a.file.empty() ? "case " + name : "file " + name;
-    const auto session = replay_one(a, params, source, scenario);
+    std::optional<scenarios::NcCommandObserver> nc_observer;
+    const std::filesystem::path nc_dir =
+        a.nc_out.empty() ? std::filesystem::path() : nc_dir_of(a, name, cases.size() > 1);
+    if (!a.nc_out.empty())
+      nc_observer.emplace(scenario.output_names, scenarios::nc_observer_options(nc_setup.config));
+    const auto session =
+        replay_one(a, params, source, scenario, nc_setup, nc_dir, nc_observer ? &*nc_observer : nullptr);
+    if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer);
     if (!session) continue;
     reports.emplace_back(name, session->report());
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session->residuals());
@@ -351,6 +422,14 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--residuals", args->residuals,
                   "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "
                   "measurement after CP to this CSV");
+  cmd->add_option("--nc-out", args->nc_out,
+                  "Write the NC commands of the replay to this directory: commands.jsonl, program.<ext>, "
+                  "safety.jsonl (with --case all one subdirectory per case); see 'NC output'");
+  cmd->add_option("--dialect", args->dialect, "NC dialect of --nc-out: linuxcnc, fanuc, sinumerik or heidenhain")
+      ->capture_default_str();
+  cmd->add_option("--machine", args->machine,
+                  "Machine config (TOML) for --nc-out: kinematic chain, NC options, safety limits "
+                  "(default: the built-in A-C chain and limits)");
   cmd->callback([args] { run_replay(*args); });
 }
 

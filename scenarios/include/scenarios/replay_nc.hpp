@@ -1,0 +1,93 @@
+#pragma once
+// What the NC would have received during a replay: the controller's predictions turned into axis
+// offsets (kinematics::compensate + nc::to_axis_offsets) and its probe-interval changes, each passed
+// through the safety gate (nc::CommandRecorder). Usable by replay, study and supervisor alike.
+//
+// Emission rule (docs/nc.md, "The replay's NC output"):
+// - Offsets are computed at the reference pose: tilt (A or B) = 0°, table (C) = 0°, for the
+//   workpiece reference point `[kinematics] workpiece_point_mm` of the machine config.
+// - They are considered at three kinds of moments: after every probe cycle, after every cycle with a
+//   model update (ModelUpdate event), and when `period_s` of scenario time has passed since the last
+//   of these. One controller cycle gives at most one moment.
+// - At such a moment the request is the target, approached from the offsets in force by at most
+//   `limits.max_step` per axis; while it falls short of the target, every following controller cycle
+//   is a moment too (one step per cycle until the target is reached). An axis_offsets command is
+//   emitted when some axis of the request differs from the last emitted command (zero at the start)
+//   by at least `resolution` (0.0001 mm / 0.0001°, the NC resolution). A refused request (beyond
+//   max_offset) stops the stepping until the next regular moment.
+// - Every ProbeIntervalChange event gives a probe_interval command (an infinite interval: "never").
+// The output names E_X0C, E_Y0C, E_Z0T, E_R0T, E_A0C, E_B0C, E_C0C map to the seven location errors;
+// other outputs are ignored, and without any of the seven no axis offsets are emitted.
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alc/kinematics.hpp"
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/machine_config.hpp"
+#include "nc_interface/recorder.hpp"
+#include "scenarios/replay.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::scenarios {
+
+struct NcObserverOptions {
+  kinematics::MachineChain chain = kinematics::MachineChain::ac_trunnion();
+  kinematics::AxisPositions pose{};  // reference pose: tilt 0°, table 0°
+  int work_offset = 1;               // 1 = G54 … 6 = G59
+  nc::SafetyLimits limits;
+  double period_s = 900.0;           // [s] scenario time between periodic moments (15 min)
+  double resolution = 1e-4;          // [mm] / [°] smallest change worth a command
+};
+
+// The options of a machine config (chain, work offset, limits); pose, period, resolution default.
+NcObserverOptions nc_observer_options(const nc::MachineConfig& config);
+
+// Where the observer also records each command in the history (NcCommandRecord rows).
+struct NcHistoryTarget {
+  storage::HistoryWriter* writer = nullptr;
+  storage::RunId run = 0;
+  std::string sink;                  // e.g. "file:DIR"
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;
+  nc::DialectOptions options;        // for the NC text of the record
+};
+
+class NcCommandObserver : public ReplayObserver {
+ public:
+  // Throws std::invalid_argument for an unusable chain, limits, period or resolution.
+  NcCommandObserver(const std::vector<std::string>& output_names, NcObserverOptions options);
+
+  // Also record every command (accepted = the safety gate passed it) in a history database.
+  void set_history(NcHistoryTarget target) { history_ = std::move(target); }
+
+  void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const ControllerOutput& out) override;
+  void on_probe(std::size_t row, const ProbeMeasurement& probe, const ControllerOutput& out) override;
+
+  // The commands as emitted (before the gate), in order: the input of nc::write_replay_nc_output.
+  const std::vector<nc::NcCommand>& commands() const { return commands_; }
+  // The gate's decisions, one per command, and the commands it lets through (split steps expanded).
+  const nc::CommandRecorder& recorder() const { return recorder_; }
+  std::size_t refused() const { return refused_; }
+  std::size_t not_converged() const { return not_converged_; }  // moments skipped: compensate() failed
+  bool maps_any_error() const { return maps_any_; }
+
+ private:
+  void handle(double time_s, const ControllerOutput& out, bool probe_cycle);
+  nc::SafetyDecision emit(const nc::NcCommand& command, double time_s);
+
+  NcObserverOptions options_;
+  std::vector<int> field_of_output_;  // index into the seven errors, -1 = ignored
+  bool maps_any_ = false;
+  nc::CommandRecorder recorder_;
+  std::vector<nc::NcCommand> commands_;
+  nc::AxisOffsets last_;               // last emitted offsets (zero at the start)
+  nc::AxisOffsets in_force_;           // what the gate let through last (zero at the start)
+  bool behind_ = false;                // in_force_ has not reached the latest target yet
+  double next_periodic_s_ = -kInf;     // [s]
+  std::size_t refused_ = 0;
+  std::size_t not_converged_ = 0;
+  std::optional<NcHistoryTarget> history_;
+};
+
+}  // namespace alc::scenarios

@@ -1,0 +1,164 @@
+#include "scenarios/replay_nc.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "nc_interface/jsonl.hpp"
+
+namespace alc::scenarios {
+
+namespace {
+
+// The seven location errors, in the order of their fields in kinematics::LocationErrors.
+const char* const kErrorNames[] = {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C"};
+
+void set_error(kinematics::LocationErrors& e, int field, double value) {
+  switch (field) {
+    case 0: e.x0c_um = value; break;
+    case 1: e.y0c_um = value; break;
+    case 2: e.z0t_um = value; break;
+    case 3: e.r0t_um = value; break;
+    case 4: e.a0c_um_per_m = value; break;
+    case 5: e.b0c_um_per_m = value; break;
+    case 6: e.c0c_um_per_m = value; break;
+    default: break;
+  }
+}
+
+bool differs(const nc::AxisOffsets& a, const nc::AxisOffsets& b, double resolution) {
+  const double limit = resolution * (1.0 - 1e-9);
+  auto d = [&](double x, double y) { return std::abs(x - y) >= limit; };
+  auto opt = [&](const std::optional<double>& x, const std::optional<double>& y) {
+    return x.has_value() != y.has_value() || (x && d(*x, *y));
+  };
+  return d(a.x_mm, b.x_mm) || d(a.y_mm, b.y_mm) || d(a.z_mm, b.z_mm) || opt(a.a_deg, b.a_deg) ||
+         opt(a.b_deg, b.b_deg) || d(a.c_deg, b.c_deg);
+}
+
+// One step from `from` toward `to`: each axis moves by at most its max_step (a little less, so the
+// gate's comparison never sees a step above the limit through rounding).
+nc::AxisOffsets step_toward(const nc::AxisOffsets& from, const nc::AxisOffsets& to, const nc::AxisLimits& max_step) {
+  auto move = [](double x, double y, double limit) {
+    const double l = limit * (1.0 - 1e-9);
+    const double d = y - x;
+    return std::abs(d) <= l ? y : x + (d > 0 ? l : -l);
+  };
+  nc::AxisOffsets s = to;
+  s.x_mm = move(from.x_mm, to.x_mm, max_step.x_mm);
+  s.y_mm = move(from.y_mm, to.y_mm, max_step.y_mm);
+  s.z_mm = move(from.z_mm, to.z_mm, max_step.z_mm);
+  if (to.a_deg) s.a_deg = move(from.a_deg.value_or(0.0), *to.a_deg, max_step.a_deg);
+  if (to.b_deg) s.b_deg = move(from.b_deg.value_or(0.0), *to.b_deg, max_step.b_deg);
+  s.c_deg = move(from.c_deg, to.c_deg, max_step.c_deg);
+  return s;
+}
+
+}  // namespace
+
+NcObserverOptions nc_observer_options(const nc::MachineConfig& config) {
+  NcObserverOptions o;
+  o.chain = config.chain;
+  o.work_offset = config.work_offset;
+  o.limits = config.limits;
+  return o;
+}
+
+NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_names, NcObserverOptions options)
+    : options_(std::move(options)), recorder_(options_.limits) {
+  if (const std::string e = kinematics::validate(options_.chain); !e.empty())
+    throw std::invalid_argument("NC observer: machine chain: " + e);
+  if (!(options_.period_s > 0.0)) throw std::invalid_argument("NC observer: period_s must be > 0");
+  if (!(options_.resolution > 0.0) || !std::isfinite(options_.resolution))
+    throw std::invalid_argument("NC observer: resolution must be finite and > 0");
+  // The starting point of the comparison: zero offsets on the axes of this chain.
+  last_ = nc::to_axis_offsets(kinematics::Compensation{}, options_.chain, options_.work_offset);
+  in_force_ = last_;
+  for (const std::string& name : output_names) {
+    int field = -1;
+    for (int k = 0; k < 7; ++k)
+      if (name == kErrorNames[k]) field = k;
+    field_of_output_.push_back(field);
+    if (field >= 0) maps_any_ = true;
+  }
+}
+
+void NcCommandObserver::on_sample(std::size_t, double time_s, const Eigen::VectorXd&, const ControllerOutput& out) {
+  handle(time_s, out, false);
+}
+
+void NcCommandObserver::on_probe(std::size_t, const ProbeMeasurement& probe, const ControllerOutput& out) {
+  handle(probe.time_s, out, true);
+}
+
+void NcCommandObserver::handle(double time_s, const ControllerOutput& out, bool probe_cycle) {
+  bool updated = false;
+  for (const ControllerEvent& e : out.events) {
+    if (e.type == ControllerEvent::Type::ModelUpdate) updated = true;
+    if (e.type != ControllerEvent::Type::ProbeIntervalChange) continue;
+    nc::ProbeInterval p;
+    if (std::isfinite(e.interval_s)) p.minutes = e.interval_s / 60.0;
+    p.time_s = e.time_s;
+    emit(p, e.time_s);
+  }
+  const bool periodic = time_s >= next_periodic_s_;
+  if (!(probe_cycle || updated || periodic || behind_) || !maps_any_) return;
+  if (probe_cycle || updated || periodic) next_periodic_s_ = time_s + options_.period_s;
+
+  kinematics::LocationErrors errors;
+  for (std::size_t k = 0; k < field_of_output_.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    if (field_of_output_[k] < 0 || i >= out.prediction.size()) continue;
+    const double v = out.prediction[i];
+    if (std::isfinite(v)) set_error(errors, field_of_output_[k], v);
+  }
+  const kinematics::Compensation c = kinematics::compensate(options_.chain, options_.pose, errors);
+  if (!c.converged) {
+    ++not_converged_;
+    return;
+  }
+  const nc::AxisOffsets target = nc::to_axis_offsets(c, options_.chain, options_.work_offset);
+  // Approach the target in steps within max_step, one per controller cycle while behind.
+  nc::AxisOffsets request = step_toward(in_force_, target, options_.limits.max_step);
+  behind_ = differs(request, target, options_.resolution);
+  if (!differs(request, last_, options_.resolution)) return;
+  request.time_s = time_s;
+  last_ = request;
+  const nc::SafetyDecision d = emit(request, time_s);
+  if (d.verdict == nc::SafetyVerdict::Refused) {
+    behind_ = false;  // wait for the next regular moment instead of repeating a refusal each cycle
+  } else {
+    in_force_ = d.to_send.back();
+  }
+}
+
+nc::SafetyDecision NcCommandObserver::emit(const nc::NcCommand& command, double time_s) {
+  const nc::SafetyDecision d = recorder_.record(command);
+  commands_.push_back(command);
+  const bool accepted = d.verdict != nc::SafetyVerdict::Refused;
+  if (!accepted) ++refused_;
+  if (!history_ || history_->writer == nullptr) return d;
+  storage::NcCommandRecord r;
+  r.run_id = history_->run;
+  r.time_s = time_s;
+  r.kind = std::holds_alternative<nc::AxisOffsets>(command) ? "offsets" : "probe_interval";
+  r.sink = history_->sink;
+  r.accepted = accepted;
+  if (accepted) {
+    // What the NC receives: the program of the command's steps (one, or several when split).
+    if (std::holds_alternative<nc::AxisOffsets>(command)) {
+      r.text = nc::write_program(history_->dialect,
+                                 std::vector<nc::NcCommand>(d.to_send.begin(), d.to_send.end()), history_->options);
+    } else {
+      r.text = nc::write_program(history_->dialect, {command}, history_->options);
+    }
+    if (d.verdict == nc::SafetyVerdict::Split) r.message = d.message;
+  } else {
+    // Nothing was sent: keep the request as a JSON line and why the gate refused it.
+    r.text = nc::to_json_line(command);
+    r.message = d.message;
+  }
+  history_->writer->add(r);
+  return d;
+}
+
+}  // namespace alc::scenarios
