@@ -70,14 +70,7 @@ Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::fi
 
 void run_bench(const BenchArgs& a) {
   if (a.repeat < 1) throw UsageError("--repeat: must be at least 1, got " + std::to_string(a.repeat));
-  std::vector<std::string> names;
-  if (a.case_name == "all") {
-    for (const auto& info : scenarios::load_cases()) names.push_back(info.name);
-  } else if (scenarios::find_case(a.case_name)) {
-    names.push_back(a.case_name);
-  } else {
-    throw UsageError("--case: unknown load case '" + a.case_name + "'");
-  }
+  const std::vector<std::string> names = load_case_names(a.case_name);
   const auto dir = std::filesystem::temp_directory_path() / ("alc-bench-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::printf("%-5s %8s %10s %12s %14s %12s %16s %9s\n", "case", "samples", "sim [ms]", "replay [ms]",

@@ -309,15 +309,7 @@ void run_replay(const ReplayArgs& a) {
   if (!a.file.empty()) {
     cases.emplace_back(a.file, scenarios::read_scenario_csv(a.file));
   } else {
-    std::vector<std::string> names;
-    if (a.case_name == "all") {
-      for (const auto& info : scenarios::load_cases()) names.push_back(info.name);
-    } else if (scenarios::find_case(a.case_name)) {
-      names.push_back(a.case_name);
-    } else {
-      throw UsageError("--case: unknown load case '" + a.case_name + "' (see 'alc simulate --list')");
-    }
-    for (const auto& name : names) {
+    for (const auto& name : load_case_names(a.case_name)) {
       auto simulated = scenarios::simulate_case(name, a.seed_given ? std::optional<std::uint64_t>(a.seed) : std::nullopt);
       cases.emplace_back(name, std::move(simulated.scenario));
     }

@@ -3,6 +3,8 @@
 // A command's callback throws on error; main() prints the message to stderr and exits non-zero.
 #include <CLI/CLI.hpp>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace alc::cli {
 
@@ -22,6 +24,10 @@ void add_simulate_command(CLI::App& app);
 
 // alc replay: a scenario or built-in load case through the ALC controller (cli/cmd_replay.cpp).
 void add_replay_command(CLI::App& app);
+
+// Names of the built-in load cases for a --case value: "all" (A–D) or one name (cli/cases.cpp).
+// Throws UsageError for an unknown name.
+std::vector<std::string> load_case_names(const std::string& selector);
 
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);

@@ -73,8 +73,7 @@ class Decoder {
     const std::size_t n = size();
     need(n * sizeof(double));
     Eigen::VectorXd v(static_cast<Eigen::Index>(n));
-    std::memcpy(v.data(), in_.data() + at_, n * sizeof(double));
-    at_ += n * sizeof(double);
+    copy_out(v.data(), n * sizeof(double));
     return v;
   }
   Eigen::MatrixXd mat() {
@@ -82,16 +81,14 @@ class Decoder {
     if (c != 0 && r > in_.size() / c) throw std::runtime_error("replay state: corrupt matrix size");
     need(r * c * sizeof(double));
     Eigen::MatrixXd m(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
-    std::memcpy(m.data(), in_.data() + at_, r * c * sizeof(double));
-    at_ += r * c * sizeof(double);
+    copy_out(m.data(), r * c * sizeof(double));
     return m;
   }
   std::vector<double> doubles() {
     const std::size_t n = size();
     need(n * sizeof(double));
     std::vector<double> v(n);
-    std::memcpy(v.data(), in_.data() + at_, n * sizeof(double));
-    at_ += n * sizeof(double);
+    copy_out(v.data(), n * sizeof(double));
     return v;
   }
   std::vector<std::string> names() {
@@ -104,6 +101,12 @@ class Decoder {
  private:
   void need(std::size_t n) const {
     if (in_.size() - at_ < n) throw std::runtime_error("replay state: payload is truncated");
+  }
+  // Copies the next `bytes` bytes to dst; an empty field copies nothing (dst may be null then).
+  void copy_out(void* dst, std::size_t bytes) {
+    need(bytes);
+    if (bytes != 0) std::memcpy(dst, in_.data() + at_, bytes);
+    at_ += bytes;
   }
   const std::string& in_;
   std::size_t at_ = 0;
