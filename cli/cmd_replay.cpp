@@ -54,6 +54,7 @@ struct ReplayArgs {
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;
   bool no_refit = false;
+  std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
   bool resume = false;
@@ -81,6 +82,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   p.acl_linear_um = a.acl_lin;
   p.acl_angular_um_per_m = a.acl_ang;
   p.refit_on_probe = !a.no_refit;
+  p.structure_refresh = parse_tab1("--structure-refresh", a.structure_refresh, 1.0);
   p.learning_window_s = parse_tab1("--window", a.window, 3600.0);
   p.identification.forgetting_half_life_s = parse_tab1("--half-life", a.half_life, 3600.0);
   p.identification.max_order = a.max_order;
@@ -193,7 +195,8 @@ std::string config_json(const ReplayArgs& a, const std::string& source) {
                       {"half_life_h", a.half_life},
                       {"method", a.method},
                       {"max_order", a.max_order},
-                      {"refit_on_probe", !a.no_refit}};
+                      {"refit_on_probe", !a.no_refit},
+                      {"structure_refresh", a.structure_refresh}};
   if (a.seed_given) j["seed"] = a.seed;
   return j.dump();
 }
@@ -399,6 +402,10 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--method", args->method, "Identification route: fixed-poles or output-error (docs/identification.md)")
       ->capture_default_str();
   cmd->add_option("--max-order", args->max_order, "Highest number of poles per input tried by structure selection")
+      ->capture_default_str();
+  cmd->add_option("--structure-refresh", args->structure_refresh,
+                  "A probe within the ACL refits the parameters with the structure kept; the structure search is "
+                  "redone when the data span has grown by this factor since the last one (1: always, inf: never)")
       ->capture_default_str();
   cmd->add_flag("--no-refit", args->no_refit,
                 "Re-identify only at the end of CP, after NG and at --update (the paper's literal reading); "

@@ -22,8 +22,18 @@ ensure_packages() {
     sudo="sudo"
   fi
   echo "installing: ${missing[*]}"
-  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
-  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  # apt's chatter goes to a log that is shown only when the install fails.
+  local log
+  log="$(mktemp)"
+  if ! { $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq &&
+         $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"; } \
+       >"$log" 2>&1; then
+    cat "$log" >&2
+    rm -f "$log"
+    echo "apt-get install failed: ${missing[*]}" >&2
+    exit 1
+  fi
+  rm -f "$log"
 }
 
 # build DIR [CMAKE_ARGS...]: configure once, then build everything in DIR.

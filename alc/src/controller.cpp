@@ -1,5 +1,6 @@
 #include "alc/controller.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -57,6 +58,8 @@ std::string AlcParameters::validate() const {
     return describe("ng_measurements", ng_measurements, "must be a whole number >= 0 or inf");
   if (!positive_or_inf(update_interval_s))
     return describe("update_interval_s", update_interval_s, "must be positive or inf");
+  if (!(structure_refresh >= 1.0))
+    return describe("structure_refresh", structure_refresh, "must be >= 1 (1: search the structure at every update, inf: never again after a search)");
   if (!positive_finite(acl_linear_um)) return describe("acl_linear_um", acl_linear_um, "must be positive and finite");
   if (!positive_finite(acl_angular_um_per_m))
     return describe("acl_angular_um_per_m", acl_angular_um_per_m, "must be positive and finite");
@@ -114,10 +117,16 @@ void Controller::change_phase(Phase to, double time_s, ControllerOutput& out, co
   out.events.push_back(std::move(e));
 }
 
-bool Controller::reidentify(double time_s, ControllerOutput& out, const std::string& reason) {
+bool Controller::reidentify(double time_s, ControllerOutput& out, const std::string& reason, bool keep_structure) {
   IdentificationOptions options = params_.identification;
   options.window_start_s = std::isfinite(params_.learning_window_s) ? time_s - params_.learning_window_s : -kInf;
-  FitResult fit = identify(state_.history, output_names_, state_.probes, options);
+  // The structure is searched again when the data span has grown enough to tell more about the
+  // slow dynamics; otherwise a confirming probe only refits the parameters (much cheaper).
+  const double span_s = time_s - std::max(state_.start_time_s, options.window_start_s);
+  const bool keep = keep_structure && state_.has_model && span_s < params_.structure_refresh * state_.structure_span_s;
+  FitResult fit = keep ? refit(state_.history, output_names_, state_.probes, options, state_.predictor.model())
+                       : identify(state_.history, output_names_, state_.probes, options);
+  if (fit.usable && !keep) state_.structure_span_s = span_s;
   ControllerEvent e;
   e.time_s = time_s;
   e.from = e.to = state_.phase;
@@ -132,7 +141,8 @@ bool Controller::reidentify(double time_s, ControllerOutput& out, const std::str
     state_.last_update_s = time_s;
     ++state_.updates;
     e.type = ControllerEvent::Type::ModelUpdate;
-    e.reason = reason + (fit.message.empty() ? "" : ": " + fit.message);
+    e.reason = reason + (keep ? ", parameters refitted with the structure kept" : "") +
+               (fit.message.empty() ? "" : ": " + fit.message);
   } else {
     ++state_.rejected_fits;
     e.type = ControllerEvent::Type::ModelRejected;
@@ -245,7 +255,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       break;
     case Phase::PostCalibration:
       if (breaches.empty()) {
-        if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL");
+        if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL", true);
         state_.next_probe_due_s = t + params_.post_cp_interval_s;
       } else if (!std::isfinite(params_.ng_interval_s) || params_.ng_measurements == 0.0) {
         // No NG burst configured: learn from what is there, right away.

@@ -24,11 +24,10 @@ std::string format_number(double v) {
   return os.str();
 }
 
-// Lag of one input column with time constant tau, sampled after stepping to each of `samples`
-// (ascending history rows). Same arithmetic as ModelPredictor::step.
-Eigen::VectorXd lag_at_samples(const InputHistory& h, Index col, double ref, double tau,
-                               const std::vector<Index>& samples) {
-  Eigen::VectorXd out(static_cast<Index>(samples.size()));
+// Lag of one input column with time constant tau after stepping to every history sample, written to
+// `out` (one value per sample). Same arithmetic as ModelPredictor::step, so a model whose poles give
+// exactly this tau continues from these values bit for bit.
+void lag_column(const InputHistory& h, Index col, double ref, double tau, double* out) {
   const auto n = static_cast<Index>(h.time_s.size());
   const double u0 = h.inputs(0, col);
   double held = std::isfinite(u0) ? u0 : ref;
@@ -36,8 +35,7 @@ Eigen::VectorXd lag_at_samples(const InputHistory& h, Index col, double ref, dou
   double last_t = h.time_s[0];
   double last_dt = -1.0;
   double a = 0.0;
-  std::size_t next = 0;
-  for (Index s = 0; s < n && next < samples.size(); ++s) {
+  for (Index s = 0; s < n; ++s) {
     if (s > 0) {
       const double dt = h.time_s[static_cast<std::size_t>(s)] - last_t;
       if (dt > 0.0) {
@@ -51,9 +49,28 @@ Eigen::VectorXd lag_at_samples(const InputHistory& h, Index col, double ref, dou
       const double u = h.inputs(s, col);
       if (std::isfinite(u)) held = u;
     }
-    while (next < samples.size() && samples[next] == s) out(static_cast<Index>(next++)) = x;
+    out[s] = x;
   }
-  return out;
+}
+
+// Lags of input columns at every history sample: column `input * taus + k` holds the lag of `input`
+// with time constant taus[k] (columns of inputs not listed stay zero).
+struct LagTable {
+  Eigen::MatrixXd x;                     // samples x (inputs * taus.size())
+  std::vector<double> taus;              // [s]
+  Index column(int input, int k) const { return static_cast<Index>(input) * static_cast<Index>(taus.size()) + k; }
+};
+
+LagTable lag_table(const InputHistory& h, const Eigen::VectorXd& ref, const std::vector<int>& inputs,
+                   std::vector<double> taus) {
+  LagTable t;
+  t.taus = std::move(taus);
+  t.x = Eigen::MatrixXd::Zero(static_cast<Index>(h.time_s.size()),
+                              static_cast<Index>(h.input_names.size() * t.taus.size()));
+  for (const int i : inputs)
+    for (std::size_t k = 0; k < t.taus.size(); ++k)
+      lag_column(h, i, ref(i), t.taus[k], t.x.col(t.column(i, static_cast<int>(k))).data());
+  return t;
 }
 
 // Chosen structure of one output: history input columns and indices into the pole grid.
@@ -63,12 +80,12 @@ struct Structure {
   Index parameters() const { return 1 + static_cast<Index>(inputs.size() * poles.size()); }
 };
 
-// The measurements of one output and the lags of every candidate input at their samples.
+// The measurements of one output and the lag table their regressors come from.
 class OutputData {
  public:
-  OutputData(const std::vector<std::vector<Eigen::VectorXd>>& lags, std::vector<Index> pos, Eigen::VectorXd y,
-             Eigen::VectorXd w, const IdentificationOptions& options)
-      : lags_(lags), pos_(std::move(pos)), y_(std::move(y)), w_(std::move(w)), options_(options) {
+  OutputData(const LagTable& lags, std::vector<Index> row_sample, Eigen::VectorXd y, Eigen::VectorXd w,
+             const IdentificationOptions& options)
+      : lags_(lags), row_sample_(std::move(row_sample)), y_(std::move(y)), w_(std::move(w)), options_(options) {
     const double ms = (w_.array() * y_.array().square()).sum() / w_.sum();
     floor_ = 1e-12 * ms + 1e-300;  // relative RMS 1e-6: below this every fit counts as exact
   }
@@ -83,8 +100,8 @@ class OutputData {
     Index c = 1;
     for (const int i : s.inputs) {
       for (const int g : s.poles) {
-        const Eigen::VectorXd& lag = lags_[static_cast<std::size_t>(i)][static_cast<std::size_t>(g)];
-        for (Index r = 0; r < rows(); ++r) phi(r, c) = lag(pos_[static_cast<std::size_t>(r)]);
+        const auto lag = lags_.x.col(lags_.column(i, g));
+        for (Index r = 0; r < rows(); ++r) phi(r, c) = lag(row_sample_[static_cast<std::size_t>(r)]);
         ++c;
       }
     }
@@ -97,14 +114,23 @@ class OutputData {
     const auto m = static_cast<double>(rows());
     const auto p = static_cast<double>(s.parameters());
     if (options_.criterion == StructureCriterion::HoldOut && rows() >= 8) {
-      Eigen::VectorXd w_fit = w_;
-      Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
-      for (Index r = 3; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
-      const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, selection_ridge(), 1);
-      if (!fit.ok || !(w_val.sum() > 0.0)) return kInf;
-      const Eigen::VectorXd r = y_ - phi * fit.theta;
-      const double sse = (w_val.array() * r.array().square()).sum() / w_val.sum();
-      return std::log(sse + floor_) + 0.01 * p;  // 1 % per parameter breaks ties towards the simpler
+      // 4-fold cross-validation: fold f holds out every 4th measurement from the f-th on; the
+      // held-out errors of all folds together score the structure (one fold alone is too noisy
+      // to choose among dozens of structures).
+      double sse = 0.0;
+      double w_sum = 0.0;
+      for (Index f = 0; f < 4; ++f) {
+        Eigen::VectorXd w_fit = w_;
+        Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
+        for (Index r = f; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
+        const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, selection_ridge(), 1);
+        if (!fit.ok) return kInf;
+        const Eigen::VectorXd r = y_ - phi * fit.theta;
+        sse += (w_val.array() * r.array().square()).sum();
+        w_sum += w_val.sum();
+      }
+      if (!(w_sum > 0.0)) return kInf;
+      return std::log(sse / w_sum + floor_) + 0.01 * p;  // 1 % per parameter breaks ties towards the simpler
     }
     const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_, selection_ridge(), 1);
     if (!fit.ok) return kInf;
@@ -118,8 +144,8 @@ class OutputData {
   double selection_ridge() const { return std::min(options_.ridge, kSelectionRidge); }
   static constexpr double kSelectionRidge = 1e-6;
 
-  const std::vector<std::vector<Eigen::VectorXd>>& lags_;  // [input][grid pole] at the probe samples
-  std::vector<Index> pos_;                                   // probe sample position of each row
+  const LagTable& lags_;
+  std::vector<Index> row_sample_;                            // history sample of each row
   Eigen::VectorXd y_;
   Eigen::VectorXd w_;
   const IdentificationOptions& options_;
@@ -186,59 +212,23 @@ struct OutputSimulation {
   Eigen::VectorXd end_lags;  // lag states after the last sample (input-major, pole-minor)
 };
 
-// Runs one output model over the history with the arithmetic of ModelPredictor::step (time
-// constants from the stored poles), without clamping.
-OutputSimulation simulate_output(const InputHistory& h, const Eigen::VectorXd& ref, const OutputModel& om,
-                                 double base_step_s, const std::vector<Index>& row_sample) {
+// The unclamped prediction of an output model whose lags are columns `cols` of `table`.
+OutputSimulation simulate_output(const LagTable& table, const std::vector<Index>& cols, const Eigen::VectorXd& theta,
+                                 const std::vector<Index>& row_sample) {
   OutputSimulation out;
-  const auto poles = om.poles.size();
-  const auto lags = static_cast<Index>(om.inputs.size()) * poles;
-  Eigen::VectorXd tau(poles);
-  for (Index k = 0; k < poles; ++k) tau(k) = time_constant_of_pole(om.poles(k), base_step_s);
-  Eigen::VectorXd factor = Eigen::VectorXd::Zero(poles);
-  Eigen::VectorXd x(lags);
-  std::vector<double> held(om.inputs.size());
-  for (std::size_t j = 0; j < om.inputs.size(); ++j) {
-    const double u0 = h.inputs(0, om.inputs[j]);
-    held[j] = std::isfinite(u0) ? u0 : ref(om.inputs[j]);
-    x.segment(static_cast<Index>(j) * poles, poles).setConstant(held[j] - ref(om.inputs[j]));
-  }
+  const auto lags = static_cast<Index>(cols.size());
   out.at_rows.resize(static_cast<Index>(row_sample.size()));
-  const Index first = row_sample.empty() ? 0 : row_sample.front();
-  const Index last = row_sample.empty() ? -1 : row_sample.back();
-  double last_t = h.time_s.front();
-  double factor_dt = -1.0;
-  std::size_t next = 0;
-  const auto n = static_cast<Index>(h.time_s.size());
-  for (Index s = 0; s < n; ++s) {
-    if (s > 0) {
-      const double dt = h.time_s[static_cast<std::size_t>(s)] - last_t;
-      if (dt > 0.0) {
-        if (dt != factor_dt) {
-          for (Index k = 0; k < poles; ++k) factor(k) = detail::lag_factor(dt, tau(k));
-          factor_dt = dt;
-        }
-        for (std::size_t j = 0; j < om.inputs.size(); ++j) {
-          const double v = held[j] - ref(om.inputs[j]);
-          for (Index k = 0; k < poles; ++k) {
-            const Index c = static_cast<Index>(j) * poles + k;
-            x(c) = detail::lag_step(x(c), factor(k), v);
-          }
-        }
-        last_t = h.time_s[static_cast<std::size_t>(s)];
-      }
-      for (std::size_t j = 0; j < om.inputs.size(); ++j) {
-        const double u = h.inputs(s, om.inputs[j]);
-        if (std::isfinite(u)) held[j] = u;
-      }
-    }
-    if (s < first || s > last) continue;
-    const double v = om.parameters(0) + om.parameters.tail(lags).dot(x);
-    out.finite = out.finite && std::isfinite(v);
-    out.peak = std::max(out.peak, std::abs(v));
-    while (next < row_sample.size() && row_sample[next] == s) out.at_rows(static_cast<Index>(next++)) = v;
-  }
-  out.end_lags = x;
+  out.end_lags.resize(lags);
+  const Index last_row = table.x.rows() - 1;
+  for (Index c = 0; c < lags; ++c) out.end_lags(c) = table.x(last_row, cols[static_cast<std::size_t>(c)]);
+  if (row_sample.empty()) return out;
+  const Index first = row_sample.front();
+  const Index last = row_sample.back();
+  Eigen::VectorXd v = Eigen::VectorXd::Constant(last - first + 1, theta(0));
+  for (Index c = 0; c < lags; ++c) v += theta(1 + c) * table.x.col(cols[static_cast<std::size_t>(c)]).segment(first, last - first + 1);
+  out.finite = v.allFinite();
+  out.peak = v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
+  for (std::size_t r = 0; r < row_sample.size(); ++r) out.at_rows(static_cast<Index>(r)) = v(row_sample[r] - first);
   return out;
 }
 
@@ -246,6 +236,12 @@ OutputSimulation simulate_output(const InputHistory& h, const Eigen::VectorXd& r
 
 FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
                    const std::vector<ProbeRecord>& probes, const IdentificationOptions& options) {
+  return refit(history, output_names, probes, options, ThermalModel{});
+}
+
+FitResult refit(const InputHistory& history, const std::vector<std::string>& output_names,
+                const std::vector<ProbeRecord>& probes, const IdentificationOptions& options,
+                const ThermalModel& structure) {
   FitResult result;
   const auto fail = [&result](std::string why) {
     result.usable = false;
@@ -301,18 +297,23 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
       constant.push_back(history.input_names[static_cast<std::size_t>(i)]);
   }
 
-  // Lags of every candidate input for every grid time constant, once, at the measurement samples.
+  // The pole grid, defined by its discrete poles: a model built from grid poles steps with exactly
+  // the time constants of the table below, so its predictor continues from the table bit for bit.
   const int grid_size = options.pole_grid_size;
+  std::vector<double> grid_pole(static_cast<std::size_t>(grid_size));
   std::vector<double> grid(static_cast<std::size_t>(grid_size));
-  for (int g = 0; g < grid_size; ++g)
-    grid[static_cast<std::size_t>(g)] =
-        grid_size == 1 ? options.tau_min_s
-                       : options.tau_min_s * std::pow(options.tau_max_s / options.tau_min_s, double(g) / (grid_size - 1));
-  std::vector<std::vector<Eigen::VectorXd>> lags(static_cast<std::size_t>(n_in));
-  if (!samples.empty()) {
-    for (const int i : candidates)
-      for (const double tau : grid) lags[static_cast<std::size_t>(i)].push_back(lag_at_samples(history, i, reference(i), tau, samples));
+  for (int g = 0; g < grid_size; ++g) {
+    const double tau = grid_size == 1 ? options.tau_min_s
+                                      : options.tau_min_s * std::pow(options.tau_max_s / options.tau_min_s, double(g) / (grid_size - 1));
+    grid_pole[static_cast<std::size_t>(g)] = pole_of_time_constant(tau, options.base_step_s);
+    grid[static_cast<std::size_t>(g)] = time_constant_of_pole(grid_pole[static_cast<std::size_t>(g)], options.base_step_s);
   }
+  // Lags of every candidate input for every grid time constant at every sample, in one pass each:
+  // the structure search, the final fit, the bound check and the predictor state all read it.
+  // Every input, not only the candidates: a kept structure may use an input that is constant now.
+  std::vector<int> all_inputs(static_cast<std::size_t>(n_in));
+  std::iota(all_inputs.begin(), all_inputs.end(), 0);
+  const LagTable grid_lags = lag_table(history, reference, samples.empty() ? std::vector<int>{} : all_inputs, grid);
 
   ThermalModel model;
   model.input_names = history.input_names;
@@ -333,7 +334,6 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     const std::string unit(unit_of(error_kind(name)));
 
     // Rows of this output.
-    std::vector<Index> pos;
     std::vector<Index> row_sample;
     std::vector<double> ys;
     std::vector<double> ts;
@@ -341,7 +341,6 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     for (std::size_t j = 0; j < used.size(); ++j) {
       const double y = used[j]->errors(o);
       if (!std::isfinite(y)) continue;
-      pos.push_back(static_cast<Index>(std::lower_bound(samples.begin(), samples.end(), sample_of[j]) - samples.begin()));
       row_sample.push_back(sample_of[j]);
       ys.push_back(y);
       ts.push_back(used[j]->time_s);
@@ -373,12 +372,48 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     if (std::isfinite(options.forgetting_half_life_s)) {
       for (Index r = 0; r < m; ++r) w(r) *= std::exp2(-(ts.back() - ts[static_cast<std::size_t>(r)]) / options.forgetting_half_life_s);
     }
-    const OutputData data(lags, pos, y, w, options);
+    // A structure to keep (refit): its inputs and poles. Grid poles read the grid table; other poles
+    // (from the output-error route) get a table of their own.
+    const OutputModel* kept = nullptr;
+    if (structure.input_names == history.input_names && structure.base_step_s == options.base_step_s) {
+      for (const OutputModel& prior : structure.outputs)
+        if (prior.name == name && prior.parameters.size() == 1 + static_cast<Index>(prior.inputs.size()) * prior.poles.size())
+          kept = &prior;
+    }
+    std::vector<int> kept_grid;  // grid index of each kept pole, empty if one is off the grid
+    LagTable kept_lags;
+    if (kept) {
+      for (Index k = 0; k < kept->poles.size(); ++k) {
+        const auto it = std::find(grid_pole.begin(), grid_pole.end(), kept->poles(k));
+        if (it == grid_pole.end()) break;
+        kept_grid.push_back(static_cast<int>(it - grid_pole.begin()));
+      }
+      if (static_cast<Index>(kept_grid.size()) != kept->poles.size()) {
+        kept_grid.clear();
+        std::vector<double> taus;
+        for (Index k = 0; k < kept->poles.size(); ++k) taus.push_back(time_constant_of_pole(kept->poles(k), options.base_step_s));
+        kept_lags = lag_table(history, reference, kept->inputs, taus);
+      }
+    }
+    const bool own_table = kept && kept_grid.empty() && kept->poles.size() > 0;
+    const LagTable& table = own_table ? kept_lags : grid_lags;
+    const OutputData data(table, row_sample, y, w, options);
 
     // Structure: inputs with the middle pole, then the poles, then the inputs again with those poles.
     Structure s{{}, {grid_size / 2}};
-    s.inputs = options.select_inputs ? select_inputs(data, candidates, s.poles, options) : candidates;
-    if (!s.inputs.empty()) {
+    if (kept) {
+      s.inputs = kept->inputs;
+      s.poles = kept_grid;
+      if (own_table) {
+        s.poles.resize(static_cast<std::size_t>(kept->poles.size()));
+        std::iota(s.poles.begin(), s.poles.end(), 0);
+      }
+    } else {
+      s.inputs = options.select_inputs ? select_inputs(data, candidates, s.poles, options) : candidates;
+    }
+    if (kept) {
+      // structure kept as it is
+    } else if (!s.inputs.empty()) {
       s.poles = select_poles(data, s.inputs, grid_size, options);
       if (options.select_inputs) {
         std::vector<int> again = select_inputs(data, candidates, s.poles, options);
@@ -401,14 +436,15 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     const detail::Conditioning cond = detail::conditioning(phi, w, fit.weighted_rss);
     Eigen::VectorXd theta = fit.theta;
     std::vector<double> tau;
-    for (const int g : s.poles) tau.push_back(grid[static_cast<std::size_t>(g)]);
+    for (const int g : s.poles) tau.push_back(table.taus[static_cast<std::size_t>(g)]);
     std::string notes;
     if (!constant.empty()) notes += "constant inputs ignored: " + std::to_string(constant.size()) + "; ";
     if (s.inputs.empty()) notes += "no input improves the criterion: offset only; ";
     if (s.parameters() >= m) notes += "more parameters than measurements, ridge decides; ";
 
     detail::RobustSettings rs{options.robust_loss, scale, options.ridge, options.max_iterations};
-    if (!s.inputs.empty() && options.method == IdentificationMethod::OutputError) {
+    if (kept) notes += "structure kept, parameters refitted; ";
+    if (!kept && !s.inputs.empty() && options.method == IdentificationMethod::OutputError) {
       detail::OutputErrorData oe{&history, reference, s.inputs, row_sample, y, w, options.tau_min_s / 2.0,
                                  options.tau_max_s * 2.0};
       const detail::Refinement r = detail::refine_output_error(oe, tau, theta, rs);
@@ -431,10 +467,30 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
     om.inputs = s.inputs;
     om.parameters = theta;
     om.poles.resize(static_cast<Index>(tau.size()));
-    for (std::size_t k = 0; k < tau.size(); ++k) om.poles(static_cast<Index>(k)) = pole_of_time_constant(tau[k], options.base_step_s);
+    // Poles exactly as the table's (grid or kept), unless the output-error step moved them.
+    const bool moved = tau.size() != s.poles.size() ||
+                       !std::equal(tau.begin(), tau.end(), s.poles.begin(), [&](double t, int g) {
+                         return t == table.taus[static_cast<std::size_t>(g)];
+                       });
+    for (std::size_t k = 0; k < tau.size(); ++k)
+      om.poles(static_cast<Index>(k)) = moved ? pole_of_time_constant(tau[k], options.base_step_s)
+                                              : (own_table ? kept->poles(static_cast<Index>(k))
+                                                           : grid_pole[static_cast<std::size_t>(s.poles[k])]);
 
-    // Simulate the output over the history: residuals at the probes and the bound between them.
-    const OutputSimulation sim = simulate_output(history, reference, om, options.base_step_s, row_sample);
+    // The prediction over the history: residuals at the probes, the bound between them, the state.
+    LagTable moved_lags;
+    std::vector<Index> cols;
+    if (moved) {
+      std::vector<double> taus;
+      for (Index k = 0; k < om.poles.size(); ++k) taus.push_back(time_constant_of_pole(om.poles(k), options.base_step_s));
+      moved_lags = lag_table(history, reference, s.inputs, taus);
+      for (const int i : s.inputs)
+        for (std::size_t k = 0; k < taus.size(); ++k) cols.push_back(moved_lags.column(i, static_cast<int>(k)));
+    } else {
+      for (const int i : s.inputs)
+        for (const int g : s.poles) cols.push_back(table.column(i, g));
+    }
+    const OutputSimulation sim = simulate_output(moved ? moved_lags : table, cols, theta, row_sample);
     double y_max = 0.0;
     for (Index r = 0; r < m; ++r) y_max = std::max(y_max, std::abs(y(r)));
     const double peak = sim.peak;

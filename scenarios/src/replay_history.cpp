@@ -123,6 +123,7 @@ void encode_controller(Encoder& e, const ControllerState& c) {
   e.pod(c.last_update_s);
   for (int v : {c.probe_cycles, c.ng_probes, c.ng_phases, c.updates, c.rejected_fits, c.probes_at_last_attempt})
     e.pod(v);
+  e.pod(c.structure_span_s);
   e.names(c.history.input_names);
   e.doubles(c.history.time_s);
   e.mat(c.history.inputs);
@@ -153,6 +154,7 @@ ControllerState decode_controller(Decoder& d) {
   c.last_update_s = d.pod<double>();
   for (int* v : {&c.probe_cycles, &c.ng_probes, &c.ng_phases, &c.updates, &c.rejected_fits, &c.probes_at_last_attempt})
     *v = d.pod<int>();
+  c.structure_span_s = d.pod<double>();
   c.history.input_names = d.names();
   c.history.time_s = d.doubles();
   c.history.inputs = d.mat();
@@ -200,7 +202,7 @@ std::string encode_replay_state(const ReplayState& s) {
 
 ReplayState decode_replay_state(const std::string& payload) {
   Decoder d(payload);
-  if (d.text() != kReplayStateFormat) throw std::runtime_error("replay state: not an alc.replay-state/1 payload");
+  if (d.text() != kReplayStateFormat) throw std::runtime_error(std::string("replay state: not an ") + kReplayStateFormat + " payload");
   ReplayState s;
   s.next_row = d.size();
   s.controller = decode_controller(d);

@@ -39,7 +39,7 @@ TEST_CASE("identify: recovers a known order-2 system from noiseless probes (CP 5
   std::mt19937_64 rng(11);
   const InputHistory h = test::make_history(rng, 2 * 86400.0, 60.0);
   const ThermalModel truth = test::truth_model(
-      h, {test::output_model("E_X0C", {0, 1}, {grid_tau(1), grid_tau(3)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
+      h, {test::output_model("E_X0C", {0, 1}, {grid_tau(2), grid_tau(4)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
   const Eigen::MatrixXd y = test::simulate(truth, h);
   const auto probes = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 7200.0));
   const FitResult fit = identify(h, names_of(truth), probes, exact_options());
@@ -104,7 +104,7 @@ TEST_CASE("identify: parameters lie within their confidence under seeded noise")
     std::mt19937_64 rng(seed);
     const InputHistory h = test::make_history(rng, 2 * 86400.0, 60.0);
     const ThermalModel truth = test::truth_model(
-        h, {test::output_model("E_X0C", {0, 1}, {grid_tau(1), grid_tau(3)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
+        h, {test::output_model("E_X0C", {0, 1}, {grid_tau(2), grid_tau(4)}, {1.5, 3.0, -1.2, 0.002, 0.001})});
     const auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0), &rng, kSigma);
     IdentificationOptions o;
     o.robust_loss = RobustLoss::None;
@@ -156,9 +156,9 @@ TEST_CASE("identify: order selection finds the true order (1, 2, 3) with BIC and
     std::vector<double> parameters;
   };
   const std::vector<Case> cases{
-      {{grid_tau(2)}, {0.5, 4.0, 0.003}},
-      {{grid_tau(0), grid_tau(3)}, {0.5, 4.0, -3.0, 0.002, 0.003}},
-      {{grid_tau(0), grid_tau(2), grid_tau(4)}, {0.5, 4.0, -6.0, 3.0, 0.002, -0.004, 0.003}},
+      {{grid_tau(3)}, {0.5, 4.0, 0.003}},
+      {{grid_tau(1), grid_tau(4)}, {0.5, 4.0, -3.0, 0.002, 0.003}},
+      {{grid_tau(1), grid_tau(3), grid_tau(5)}, {0.5, 4.0, -6.0, 3.0, 0.002, -0.004, 0.003}},
   };
   for (const StructureCriterion criterion : {StructureCriterion::BIC, StructureCriterion::HoldOut}) {
     for (std::size_t c = 0; c < cases.size(); ++c) {
@@ -404,4 +404,69 @@ TEST_CASE("identify: seeded random data never gives NaN, and an unusable fit alw
         REQUIRE(pred.col(static_cast<Eigen::Index>(o2)).cwiseAbs().maxCoeff() <= fit.model.outputs[o2].output_limit);
     }
   }
+}
+
+TEST_CASE("refit: keeps inputs and poles, refits the parameters, and continues like a stepped predictor") {
+  std::mt19937_64 rng(21);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0);
+  const ThermalModel truth = test::truth_model(
+      h, {test::output_model("E_X0C", {0, 1}, {grid_tau(2), grid_tau(4)}, {1.0, 3.0, -1.5, 0.002, 0.001}),
+          test::output_model("E_Y0C", {0}, {grid_tau(3)}, {-0.5, 2.0})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  const auto all = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 7200.0), &rng, 0.05);
+  std::vector<ProbeRecord> early;
+  for (const ProbeRecord& p : all)
+    if (p.time_s < 8 * 3600.0) early.push_back(p);
+  const FitResult first = identify(h, names_of(truth), early, {});
+  REQUIRE(first.usable);
+
+  const FitResult again = refit(h, names_of(truth), all, {}, first.model);
+  INFO(again.message);
+  REQUIRE(again.usable);
+  for (std::size_t o = 0; o < 2; ++o) {
+    const OutputModel& a = first.model.outputs[o];
+    const OutputModel& b = again.model.outputs[o];
+    CHECK(b.inputs == a.inputs);
+    REQUIRE(b.poles.size() == a.poles.size());
+    CHECK((b.poles.array() == a.poles.array()).all());  // exactly: no round trip through time constants
+    CHECK(b.parameters != a.parameters);                // more data, other parameters
+    CHECK_THAT(again.outputs[o].message, Catch::Matchers::Contains("structure kept"));
+  }
+  // Same predictor-state contract as identify().
+  ModelPredictor replayed(again.model);
+  for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) replayed.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose());
+  CHECK(replayed.state() == again.predictor_state);
+
+  // With the same structure, the refit is as good as identify() with the true structure on all data.
+  const auto err = [&](const FitResult& f) { return (test::simulate(f.model, h) - y).cwiseAbs().maxCoeff(); };
+  CHECK(err(again) < err(first));
+
+  // An output the structure lacks gets the full search; an empty structure is identify().
+  ThermalModel only_x = first.model;
+  only_x.outputs.pop_back();
+  const FitResult mixed = refit(h, names_of(truth), all, {}, only_x);
+  REQUIRE(mixed.usable);
+  CHECK_THAT(mixed.outputs[0].message, Catch::Matchers::Contains("structure kept"));
+  CHECK_THAT(mixed.outputs[1].message, !Catch::Matchers::Contains("structure kept"));
+  const FitResult plain = identify(h, names_of(truth), all, {});
+  const FitResult empty = refit(h, names_of(truth), all, {}, ThermalModel{});
+  CHECK(empty.predictor_state == plain.predictor_state);
+}
+
+TEST_CASE("refit: time constants off the grid (output-error route) are kept exactly") {
+  std::mt19937_64 rng(56);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0);
+  const ThermalModel truth = test::truth_model(h, {test::output_model("E_X0C", {0, 1}, {2500.0}, {0.3, 4.0, 0.003})});
+  const auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 6.5 * 3600.0, 300.0, 7200.0), &rng, 0.05);
+  IdentificationOptions o;
+  o.max_order = 1;
+  o.method = IdentificationMethod::OutputError;
+  const FitResult oe = identify(h, {"E_X0C"}, probes, o);
+  REQUIRE(oe.usable);
+  const FitResult again = refit(h, {"E_X0C"}, probes, o, oe.model);
+  REQUIRE(again.usable);
+  CHECK((again.model.outputs[0].poles.array() == oe.model.outputs[0].poles.array()).all());
+  ModelPredictor replayed(again.model);
+  for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) replayed.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose());
+  CHECK(replayed.state() == again.predictor_state);
 }

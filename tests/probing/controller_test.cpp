@@ -13,14 +13,20 @@ namespace {
 constexpr double kMinute = 60.0;
 constexpr double kHour = 3600.0;
 
-// A plant whose errors follow a 10-min lag of one input (a pole on the identification grid):
+// The time constant of the third pole of the default identification grid (about 17 min).
+double grid_tau_2() {
+  const IdentificationOptions o;
+  return o.tau_min_s * std::pow(o.tau_max_s / o.tau_min_s, 2.0 / (o.pole_grid_size - 1));
+}
+
+// A plant whose errors follow a lag of one input with a pole on the identification grid:
 // E_X0C = 3 * x, E_A0C = -4 * x, x = lag(T - 20), plus scripted disturbances.
 struct Plant {
   double offset_x = 0.0;  // [µm] scripted disturbance added to E_X0C
   double offset_a = 0.0;  // [µm/m] scripted disturbance added to E_A0C
   double lag = 0.0;       // [K] state of the lag
   double last_t = 0.0;    // [s]
-  static constexpr double kTau = 600.0;  // [s]
+  inline static const double kTau = grid_tau_2();  // [s]
   static double temperature(double t) { return 20.0 + 2.0 * std::sin(2.0 * M_PI * t / (6.0 * kHour)); }
   Eigen::VectorXd inputs(double t) const {
     Eigen::VectorXd u(2);
@@ -178,6 +184,54 @@ TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the
     CHECK(updates[i].reason.rfind("Post-CP probe within the ACL", 0) == 0);
   }
   CHECK(d.controller.phase() == Phase::PostCalibration);
+}
+
+TEST_CASE("controller: a confirming probe keeps the structure until the data span has grown by structure_refresh") {
+  const auto kept = [](const ControllerEvent& e) { return e.reason.find("structure kept") != std::string::npos; };
+  SECTION("1.5: after CP at 2 h the structure is searched again at 3 h (span 1.5 x 2 h), kept at 4 h, searched at 5 h") {
+    AlcParameters p = test_parameters();
+    p.refit_on_probe = true;
+    p.structure_refresh = 1.5;
+    Driver d(p);
+    d.run_until(6 * kHour + kMinute);
+    const auto updates = d.of_type(ControllerEvent::Type::ModelUpdate);
+    REQUIRE(updates.size() == 5);
+    CHECK_FALSE(kept(updates[0]));  // CP end: 2 h of data
+    CHECK_FALSE(kept(updates[1]));  // 3 h >= 1.5 x 2 h
+    CHECK(kept(updates[2]));        // 4 h < 1.5 x 3 h
+    CHECK_FALSE(kept(updates[3]));  // 5 h >= 4.5 h
+    CHECK(kept(updates[4]));        // 6 h < 7.5 h
+  }
+  SECTION("1: every confirming probe searches the structure") {
+    AlcParameters p = test_parameters();
+    p.refit_on_probe = true;
+    p.structure_refresh = 1.0;
+    Driver d(p);
+    d.run_until(6 * kHour + kMinute);
+    for (const auto& e : d.of_type(ControllerEvent::Type::ModelUpdate)) CHECK_FALSE(kept(e));
+  }
+  SECTION("inf: the structure found at CP end stays; the parameters follow the probes") {
+    AlcParameters p = test_parameters();
+    p.refit_on_probe = true;
+    p.structure_refresh = kInf;
+    Driver d(p);
+    d.run_until(2 * kHour + kMinute);
+    const ThermalModel at_cp = d.controller.state().predictor.model();
+    d.run_until(6 * kHour + kMinute);
+    const auto updates = d.of_type(ControllerEvent::Type::ModelUpdate);
+    REQUIRE(updates.size() == 5);
+    for (std::size_t i = 1; i < updates.size(); ++i) CHECK(kept(updates[i]));
+    const ThermalModel& now = d.controller.state().predictor.model();
+    for (std::size_t o = 0; o < now.outputs.size(); ++o) {
+      CHECK(now.outputs[o].inputs == at_cp.outputs[o].inputs);
+      CHECK((now.outputs[o].poles.array() == at_cp.outputs[o].poles.array()).all());
+    }
+  }
+  SECTION("below 1 is refused") {
+    AlcParameters p = test_parameters();
+    p.structure_refresh = 0.5;
+    CHECK_THAT(p.validate(), Catch::Matchers::Contains("structure_refresh = 0.5"));
+  }
 }
 
 TEST_CASE("controller: with refit_on_probe an ACL breach is learned from at once, then again after NG") {

@@ -25,19 +25,27 @@ TEST_CASE("load cases A-D: linear P99 below 5 µm, Pd at least 95.5 %, and the A
   }
 }
 
-TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay, and compensation helps on average") {
+TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay; compensation helps every output") {
   const auto simulated = simulate_case("S16");
   REQUIRE(simulated.scenario.input_names.size() == 17);
   REQUIRE(simulated.scenario.output_names.size() == 5);
   const ReplayReport r = replay(simulated.scenario, AlcParameters{});
-  CHECK(r.outputs.size() == 5);
-  for (const auto& o : r.outputs) CHECK(o.measurements > 20);
-  CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99_uncompensated(ErrorKind::Linear));
+  REQUIRE(r.outputs.size() == 5);
+  for (const auto& o : r.outputs) {
+    INFO(o.name << ": P99 " << o.P99 << " µm, uncompensated " << o.P99_uncompensated << " µm");
+    CHECK(o.measurements > 20);
+    CHECK(o.P99 < o.P99_uncompensated);  // compensation never makes an output worse
+  }
+  // Input selection among 16 sensors: the adaptive model beats the static regression on all of them.
+  CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, /*baseline=*/true));
 }
 
 TEST_CASE("load case A: the replay state survives encoding at many points and continues bit for bit") {
   const auto simulated = simulate_case("A");
-  const ReplayReport whole = replay(simulated.scenario, AlcParameters{});
+  ReplaySession uninterrupted(simulated.scenario, AlcParameters{});
+  uninterrupted.run();
+  const ReplayReport whole = uninterrupted.report();
+  const ControllerState& end = uninterrupted.controller().state();
   for (double stop_h : {0.0, 6.0, 6.5, 7.0, 30.0, 100.25, 191.0}) {
     ReplaySession first(simulated.scenario, AlcParameters{});
     first.run(stop_h * 3600.0);
@@ -49,6 +57,13 @@ TEST_CASE("load case A: the replay state survives encoding at many points and co
     CHECK(r.M == whole.M);
     CHECK(r.updates == whole.updates);
     CHECK(r.ng_phases == whole.ng_phases);
+    // The decisions themselves, not only the indicators: every probe time, the model, its state.
+    const ControllerState& c = second.controller().state();
+    REQUIRE(c.probes.size() == end.probes.size());
+    for (std::size_t k = 0; k < c.probes.size(); ++k) CHECK(c.probes[k].time_s == end.probes[k].time_s);
+    CHECK(c.structure_span_s == end.structure_span_s);
+    CHECK(c.predictor.state() == end.predictor.state());
+    CHECK(c.next_probe_due_s == end.next_probe_due_s);
     for (std::size_t k = 0; k < r.outputs.size(); ++k) {
       CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
       CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);

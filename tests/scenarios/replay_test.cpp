@@ -13,8 +13,15 @@ namespace {
 constexpr double kMinute = 60.0;
 constexpr double kHour = 3600.0;
 
-// 24 h at 1 min; one temperature; E_X0C = 2 * lag_10min(T - 20) recorded every `every` minutes,
-// plus a step of `step_um` from `step_at_h` on (something the model has to re-learn).
+// The third time constant of the default identification grid (about 17 min): a plant with this lag
+// is exactly representable by a first-order model.
+double grid_tau_2() {
+  const IdentificationOptions o;
+  return o.tau_min_s * std::pow(o.tau_max_s / o.tau_min_s, 2.0 / (o.pole_grid_size - 1));
+}
+
+// 24 h at 1 min; one temperature; E_X0C = 2 * lag(T - 20) (time constant grid_tau_2()) recorded every
+// `every` minutes, plus a step of `step_um` from `step_at_h` on (something the model has to re-learn).
 Scenario synthetic(int every_min, double step_um = 0.0, double step_at_h = 1e9) {
   Scenario s;
   s.input_names = {"T_ENV"};
@@ -27,7 +34,7 @@ Scenario synthetic(int every_min, double step_um = 0.0, double step_at_h = 1e9) 
   for (int k = 0; k < n; ++k) {
     const double t = k * kMinute;
     const double u = 3.0 * std::sin(2 * M_PI * t / (7 * kHour)) + 1.0 * std::sin(2 * M_PI * t / (2.3 * kHour));
-    if (k > 0) lag += (1.0 - std::exp(-kMinute / 600.0)) * (prev_u - lag);
+    if (k > 0) lag += (1.0 - std::exp(-kMinute / grid_tau_2())) * (prev_u - lag);
     prev_u = u;
     s.time_s[static_cast<std::size_t>(k)] = t;
     s.inputs(k, 0) = 20.0 + u;

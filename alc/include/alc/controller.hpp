@@ -30,6 +30,9 @@ struct AlcParameters {
   double update_interval_s = kInf;         // [s] periodic re-identification in Post-CP; inf: none
   bool refit_on_probe = true;              // re-identify after every Post-CP probe within the ACL too, so
                                            // each measurement is learned from (docs/identification.md)
+  double structure_refresh = 1.25;         // [-] a probe that confirms the model refits its parameters with
+                                           //     the structure kept, unless the data span has grown by this
+                                           //     factor since the last structure search (then a full search)
   double acl_linear_um = 5.0;              // [µm] action control limit of linear errors
   double acl_angular_um_per_m = 15.0;      // [µm/m] action control limit of angular errors
   double learning_window_s = kInf;         // [s] re-identify on the data of this last span; inf: all data
@@ -84,6 +87,7 @@ struct ControllerState {
   int updates = 0;                     // successful identifications (incl. the first at CP end)
   int rejected_fits = 0;               // identifications that kept the previous model
   int probes_at_last_attempt = -1;     // probes seen at the last end-of-CP fit attempt
+  double structure_span_s = 0.0;       // [s] span of the data used by the last structure search
   InputHistory history;                // all input samples
   std::vector<ProbeRecord> probes;     // all probe records (thermal error = measured + compensation)
   bool has_model = false;
@@ -116,7 +120,9 @@ class Controller {
   void advance(double time_s, ControllerOutput& out);
   void set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason);
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
-  bool reidentify(double time_s, ControllerOutput& out, const std::string& reason);
+  // keep_structure: refit the parameters of the current model's structure (refit()) instead of
+  // the full identify(); used for the probes that confirm the model.
+  bool reidentify(double time_s, ControllerOutput& out, const std::string& reason, bool keep_structure = false);
 
   std::vector<std::string> output_names_;
   std::vector<ErrorKind> kinds_;

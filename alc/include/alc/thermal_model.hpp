@@ -34,11 +34,14 @@ struct ProbeRecord {
   double weight = 1.0;             // [-] extra weight of this measurement (e.g. 0 to ignore)
 };
 
+// Samples x inputs, row-major so that appending a sample extends the storage at its end.
+using InputMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 // Input history given to identification: uniform or not, in time order.
 struct InputHistory {
   std::vector<std::string> input_names;
   std::vector<double> time_s;      // [s]
-  Eigen::MatrixXd inputs;          // samples x inputs (rows align with time_s)
+  InputMatrix inputs;              // samples x inputs (rows align with time_s)
 };
 
 enum class RobustLoss { None, Huber, Cauchy };
@@ -53,9 +56,10 @@ struct IdentificationOptions {
   IdentificationMethod method = IdentificationMethod::FixedPoles;
   double base_step_s = 60.0;                 // [s] step at which `poles` are expressed
   int max_order = 3;                         // highest ARX order (number of poles per input) tried
-  double tau_min_s = 600.0;                  // [s] shortest time constant of the pole grid
+  double tau_min_s = 120.0;                  // [s] shortest time constant of the pole grid (fast sensors:
+                                             //     an almost static term; docs/identification.md)
   double tau_max_s = 72000.0;                // [s] longest time constant of the pole grid
-  int pole_grid_size = 6;                    // [-] log-spaced time constants tau_min_s..tau_max_s
+  int pole_grid_size = 7;                    // [-] log-spaced time constants tau_min_s..tau_max_s
   StructureCriterion criterion = StructureCriterion::BIC;
   bool select_inputs = true;                 // drop inputs that do not help (p-values / Lasso)
   int max_inputs = 8;                        // upper bound of inputs kept after selection
@@ -126,6 +130,14 @@ double pole_of_time_constant(double tau_s, double base_step_s);
 
 FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
                    const std::vector<ProbeRecord>& probes, const IdentificationOptions& options);
+
+// identify() without the structure search for the outputs that `structure` has (same name, same
+// input names and base step): their inputs and poles are kept and only the parameters are fitted
+// again (weighted least squares and the robust refinement; no output-error step). Outputs that
+// `structure` lacks get the full search. Same usability rules and summary as identify().
+FitResult refit(const InputHistory& history, const std::vector<std::string>& output_names,
+                const std::vector<ProbeRecord>& probes, const IdentificationOptions& options,
+                const ThermalModel& structure);
 
 // Runs a model forward over samples. Feed every input sample in time order.
 class ModelPredictor {

@@ -10,8 +10,8 @@
 namespace alc::scenarios {
 
 // Exact binary form of a replay state (controller, model, baseline, evaluation so far).
-// Format "alc.replay-state/1"; decode throws std::runtime_error on a truncated or foreign payload.
-inline constexpr const char* kReplayStateFormat = "alc.replay-state/1";
+// Format "alc.replay-state/2"; decode throws std::runtime_error on a truncated or foreign payload.
+inline constexpr const char* kReplayStateFormat = "alc.replay-state/2";
 std::string encode_replay_state(const ReplayState& state);
 ReplayState decode_replay_state(const std::string& payload);
 
