@@ -382,9 +382,10 @@ void add_replay_command(CLI::App& app) {
                 "baseline fitted once on the CP measurements. Defaults: the paper's chosen set (Tab. 3).");
   cmd->add_option("file", args->file, "Scenario CSV to replay (see README, 'Scenario CSV')");
   cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, or all (A–D with a Tab. 3 summary)");
-  cmd->add_option_function<std::uint64_t>(
-      "--seed", [args](std::uint64_t s) { args->seed = s; args->seed_given = true; },
-      "Seed of the built-in load case (default: the case's own seed)");
+  cmd->add_option_function<std::string>(
+      "--seed", [args](const std::string& s) { args->seed = parse_seed(s); args->seed_given = true; },
+      "Seed of the built-in load case, 0 to 2^64-1 (default: the case's own seed)")
+      ->type_name("UINT");
   cmd->add_option("--cp", args->cp, "Calibration phase length [h]")->capture_default_str();
   cmd->add_option("--cp-interval", args->cp_interval, "Probe interval during CP [min]")->capture_default_str();
   cmd->add_option("--interval", args->interval, "Probe interval after CP [h], or inf")->capture_default_str();

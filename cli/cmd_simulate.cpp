@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -24,7 +25,7 @@ struct SimulateArgs {
   std::string case_name;
   std::string out;
   std::string truth;
-  std::uint64_t seed = 0;
+  std::string seed;  // as given: CLI11 would wrap "-1" to 2^64 - 1 and clamp what is too large
   bool seed_given = false;
   bool list = false;
   bool summary = false;
@@ -116,9 +117,12 @@ void run_simulate(const SimulateArgs& args) {
   if (args.out.empty() && args.truth.empty() && !args.summary)
     throw UsageError("simulate: nothing to do; give --out FILE, --truth FILE or --summary");
 
+  std::optional<std::uint64_t> seed;
+  if (args.seed_given) seed = parse_seed(args.seed);
+
   std::vector<sc::SimulatedCase> runs;
   for (const auto& name : names) {
-    runs.push_back(sc::simulate_case(name, args.seed_given ? std::optional<std::uint64_t>(args.seed) : std::nullopt));
+    runs.push_back(sc::simulate_case(name, seed));
     if (!args.out.empty()) sc::write_scenario_csv(args.out, runs.back().scenario);
     if (!args.truth.empty()) sc::write_scenario_csv(args.truth, truth_scenario(runs.back()));
   }
@@ -142,7 +146,9 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--truth", args->truth,
                   "Also write the noiseless truth (loads, node temperatures, true errors at every sample) as CSV");
   CLI::Option* seed = cmd->add_option("--seed", args->seed,
-                                      "Seed of every random draw (default: the case's own seed; same seed, same file)");
+                                      "Seed of every random draw, 0 to 2^64-1 (default: the case's own seed; same seed, "
+                                      "same file)")
+                          ->type_name("UINT");
   CLI::Option* list = cmd->add_flag("--list", args->list, "List the cases: name, duration, sampling, seed, description");
   cmd->add_flag("--summary", args->summary,
                 "Print each case's duration and the peak and P99 of |measured error| per error (Markdown table)");

@@ -2,6 +2,7 @@
 // Each command of the `alc` program registers itself on the top-level app.
 // A command's callback throws on error; main() prints the message to stderr and exits non-zero.
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -28,6 +29,9 @@ void add_replay_command(CLI::App& app);
 // Names of the built-in load cases for a --case value: "all" (A–D) or one name (cli/cases.cpp).
 // Throws UsageError for an unknown name.
 std::vector<std::string> load_case_names(const std::string& selector);
+
+// A --seed value: decimal digits only, 0 ... 2^64 - 1 (CLI11 would wrap "-1"). Throws UsageError.
+std::uint64_t parse_seed(const std::string& text);
 
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);

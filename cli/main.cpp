@@ -21,7 +21,12 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // CLI11 prints --help / --version (code 0) to stdout and its message to stderr. Any other
+    // parse error (unknown option, bad number, missing or excluded option...) is a usage error:
+    // exit 2 as the README says, not CLI11's own codes (104, 106, ...).
+    const int code = app.exit(e);
+    if (code == 0) return 0;
+    return dynamic_cast<const CLI::RuntimeError*>(&e) != nullptr ? 1 : 2;
   } catch (const alc::cli::UsageError& e) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return 2;

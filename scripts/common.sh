@@ -36,12 +36,12 @@ ensure_packages() {
   rm -f "$log"
 }
 
-# build DIR [CMAKE_ARGS...]: configure once, then build everything in DIR.
+# build DIR [CMAKE_ARGS...]: configure, then build everything in DIR. The configure step runs every
+# time (quick when nothing changed), so CMAKE_ARGS that differ from the cache of an earlier run
+# take effect instead of being ignored.
 build() {
   local dir="$1"; shift
-  if [ ! -f "$dir/build.ninja" ]; then
-    cmake -S "$ALC_ROOT" -B "$dir" -G Ninja "$@" >/dev/null
-  fi
+  cmake -S "$ALC_ROOT" -B "$dir" -G Ninja "$@" >/dev/null
   if ! cmake --build "$dir" -j "$ALC_JOBS" >"$dir/build.log" 2>&1; then
     cat "$dir/build.log" >&2
     echo "build failed in $dir" >&2

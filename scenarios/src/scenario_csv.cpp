@@ -23,8 +23,12 @@ std::string location_prefix(const std::string& file, std::size_t line, std::size
   return s;
 }
 
+// At most `max` bytes of `text`, cut at a UTF-8 character boundary, with "…" when cut.
 std::string shorten(const std::string& text, std::size_t max = 60) {
-  return text.size() <= max ? text : text.substr(0, max) + "…";
+  if (text.size() <= max) return text;
+  std::size_t cut = max;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return text.substr(0, cut) + "…";
 }
 
 std::string compose(const std::string& file, std::size_t line, std::size_t column,
@@ -63,7 +67,10 @@ std::string unquote(const std::string& s) {
 std::string parse_double(const std::string& cell, double& out) {
   const char* begin = cell.data();
   const char* end = cell.data() + cell.size();
-  if (begin != end && *begin == '+') ++begin;  // from_chars rejects a leading '+'
+  if (begin != end && *begin == '+') {  // from_chars rejects a leading '+'; accept one before a digit or '.'
+    ++begin;
+    if (begin != end && (*begin == '+' || *begin == '-')) return "not a number";  // "+-5", "++5"
+  }
   const auto [ptr, ec] = std::from_chars(begin, end, out);
   if (ec == std::errc::result_out_of_range) return "number out of range";
   if (ec != std::errc() || ptr != end || begin == end) return "not a number";
@@ -91,7 +98,10 @@ int Scenario::output_index(const std::string& name) const {
   return -1;
 }
 
-Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
+namespace {
+
+// `empty_reason`: what to say when there is no header line at all.
+Scenario parse_csv(std::istream& in, const std::string& source, const std::string& empty_reason) {
   std::string line;
   std::size_t line_no = 0;
   auto next_line = [&]() -> bool {
@@ -107,10 +117,11 @@ Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
   while (next_line()) {
     if (!trim(line).empty()) { have_header = true; break; }
   }
-  if (!have_header) throw ScenarioCsvError(source, 0, 0, "", "", "the file is empty (no header line)");
+  if (!have_header) throw ScenarioCsvError(source, 0, 0, "", "", empty_reason);
 
   std::vector<std::string> header = split_cells(line);
   const std::size_t header_line = line_no;
+  const std::string header_text = shorten(line);
   enum class Role { Time, Input, Output };
   std::vector<Role> roles(header.size());
   std::vector<int> slot(header.size(), -1);
@@ -120,9 +131,13 @@ Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
   for (std::size_t c = 0; c < header.size(); ++c) {
     header[c] = unquote(header[c]);
     const std::string& name = header[c];
-    if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", name, "empty column name in header");
-    if (!seen.insert(name).second)
-      throw ScenarioCsvError(source, header_line, c + 1, name, name, "duplicate column name in header");
+    if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", header_text, "empty column name in header");
+    if (!seen.insert(name).second) {
+      std::size_t first = 0;
+      while (header[first] != name) ++first;
+      throw ScenarioCsvError(source, header_line, c + 1, name, header_text,
+                             "duplicate column name in header, first at column " + std::to_string(first + 1));
+    }
     if (name == "time_s") {
       roles[c] = Role::Time;
       time_col = static_cast<int>(c);
@@ -137,12 +152,12 @@ Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
     }
   }
   if (time_col < 0)
-    throw ScenarioCsvError(source, header_line, 0, "", shorten(line), "missing required column 'time_s' in header");
+    throw ScenarioCsvError(source, header_line, 0, "", header_text, "missing required column 'time_s' in header");
   if (s.output_names.empty())
-    throw ScenarioCsvError(source, header_line, 0, "", shorten(line),
+    throw ScenarioCsvError(source, header_line, 0, "", header_text,
                            "no measured-error column (a name starting with 'E_') in header");
   if (s.input_names.empty())
-    throw ScenarioCsvError(source, header_line, 0, "", shorten(line),
+    throw ScenarioCsvError(source, header_line, 0, "", header_text,
                            "no input column (any column other than time_s and E_…) in header");
 
   std::vector<double> inputs, outputs;  // row-major while reading
@@ -151,10 +166,16 @@ Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
   while (next_line()) {
     if (trim(line).empty()) continue;
     cells = split_cells(line);
-    if (cells.size() != header.size())
-      throw ScenarioCsvError(source, line_no, 0, "", shorten(line),
-                             "wrong number of cells: " + std::to_string(cells.size()) + " where the header has " +
-                                 std::to_string(header.size()));
+    if (cells.size() != header.size()) {
+      // Point at the first column that is missing (its header name) or the first cell beyond the header.
+      const std::string counts =
+          "wrong number of cells: " + std::to_string(cells.size()) + " where the header has " + std::to_string(header.size());
+      if (cells.size() < header.size())
+        throw ScenarioCsvError(source, line_no, cells.size() + 1, header[cells.size()], shorten(line),
+                               counts + ", the row ends before this column");
+      throw ScenarioCsvError(source, line_no, header.size() + 1, "", shorten(line),
+                             counts + ", this cell is beyond the last column '" + header.back() + "'");
+    }
     for (std::size_t c = 0; c < cells.size(); ++c) {
       const std::string& cell = cells[c];
       if (cell.empty()) {
@@ -192,10 +213,36 @@ Scenario parse_scenario_csv(std::istream& in, const std::string& source) {
   return s;
 }
 
+const char* file_type_name(std::filesystem::file_type type) {
+  switch (type) {
+    case std::filesystem::file_type::directory: return "a directory";
+    case std::filesystem::file_type::fifo: return "a pipe";
+    case std::filesystem::file_type::character: return "a character device";
+    case std::filesystem::file_type::block: return "a block device";
+    case std::filesystem::file_type::socket: return "a socket";
+    default: return "not a file";
+  }
+}
+
+constexpr const char* kEmptyFile = "the file is empty (no header line)";
+
+}  // namespace
+
+Scenario parse_scenario_csv(std::istream& in, const std::string& source) { return parse_csv(in, source, kEmptyFile); }
+
 Scenario read_scenario_csv(const std::filesystem::path& path) {
+  // A directory opens as a stream that reads nothing: say what it is instead of "empty". A pipe or a
+  // character device (/dev/stdin, a shell's <(...)) is read like a file.
+  std::error_code ec;
+  const auto type = std::filesystem::status(path, ec).type();
+  const bool exists = !ec && type != std::filesystem::file_type::not_found;
+  const bool regular = type == std::filesystem::file_type::regular;
+  const bool stream = type == std::filesystem::file_type::fifo || type == std::filesystem::file_type::character;
+  const std::string not_regular = std::string("not a regular file (") + file_type_name(type) + ")";
+  if (exists && !regular && !stream) throw ScenarioCsvError(path.string(), 0, 0, "", "", not_regular);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ScenarioCsvError(path.string(), 0, 0, "", "", "cannot open file for reading");
-  return parse_scenario_csv(in, path.string());
+  return parse_csv(in, path.string(), regular ? std::string(kEmptyFile) : not_regular + " and nothing could be read from it");
 }
 
 std::string format_number(double value) {
@@ -205,12 +252,76 @@ std::string format_number(double value) {
   return std::string(buf, ptr);
 }
 
-void write_scenario_csv(std::ostream& out, const Scenario& s) {
+namespace {
+
+[[noreturn]] void unwritable(const std::string& why) { throw std::invalid_argument("write_scenario_csv: " + why); }
+
+// Quoted for a message: a name or a number as it would be written.
+std::string quoted(const std::string& text) {
+  std::string q(1, '\'');  // built by appending: GCC 12 warns (-Wrestrict) about "'" + std::string
+  q.append(shorten(text)).push_back('\'');
+  return q;
+}
+
+// "row 3 (line 4)": data rows count from 1, the header is line 1.
+std::string row_at(Eigen::Index r) {
+  return "row " + std::to_string(r + 1) + " (line " + std::to_string(r + 2) + ")";
+}
+
+// Everything the reader would reject (or read back differently) is refused before a byte is written.
+void check_writable(const Scenario& s) {
   const auto n = static_cast<Eigen::Index>(s.time_s.size());
   if (s.inputs.rows() != n || s.outputs.rows() != n ||
       s.inputs.cols() != static_cast<Eigen::Index>(s.input_names.size()) ||
       s.outputs.cols() != static_cast<Eigen::Index>(s.output_names.size()))
-    throw std::invalid_argument("write_scenario_csv: matrix sizes do not match the names and time_s");
+    unwritable("matrix sizes do not match the names and time_s");
+  // No input column and no rows are allowed: `alc replay --residuals` writes time_s and E_ columns
+  // only, and may have no measurement after CP. Such a file is a result, not a scenario to replay.
+  if (s.output_names.empty()) unwritable("no measured-error (E_) column");
+
+  std::unordered_set<std::string> seen{"time_s"};  // time_s is always the first column
+  const auto check_name = [&](const std::string& kind, std::size_t index, const std::string& name) {
+    const std::string what = kind + " name " + std::to_string(index + 1) + " " + quoted(name);
+    if (name.empty()) unwritable(kind + " name " + std::to_string(index + 1) + " is empty");
+    if (name.find_first_of(",\"\r\n") != std::string::npos)
+      unwritable(what + " contains a comma, a quote or a line break");
+    if (name.front() == ' ' || name.front() == '\t' || name.back() == ' ' || name.back() == '\t')
+      unwritable(what + " starts or ends with a space or tab");
+    if (name == "time_s") unwritable(what + ": time_s is written as the first column");
+    if (!seen.insert(name).second) unwritable(what + " is a duplicate");
+  };
+  for (std::size_t i = 0; i < s.input_names.size(); ++i) {
+    check_name("input", i, s.input_names[i]);
+    if (alc::is_error_name(s.input_names[i]))
+      unwritable("input name " + std::to_string(i + 1) + " " + quoted(s.input_names[i]) +
+                 " starts with 'E_', which marks a measured error");
+  }
+  for (std::size_t i = 0; i < s.output_names.size(); ++i) {
+    check_name("output", i, s.output_names[i]);
+    if (!alc::is_error_name(s.output_names[i]))
+      unwritable("output name " + std::to_string(i + 1) + " " + quoted(s.output_names[i]) +
+                 " is not a measured-error name ('E_' and at least one more character)");
+  }
+
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const double t = s.time_s[static_cast<std::size_t>(r)];
+    if (!std::isfinite(t)) unwritable("time_s at " + row_at(r) + ": value " + quoted(format_number(t)) + " is not finite");
+    if (r > 0 && !(t > s.time_s[static_cast<std::size_t>(r - 1)]))
+      unwritable("time_s at " + row_at(r) + ": value " + quoted(format_number(t)) +
+                 " is not greater than the previous row's " + quoted(format_number(s.time_s[static_cast<std::size_t>(r - 1)])));
+    for (Eigen::Index c = 0; c < s.inputs.cols(); ++c)
+      if (!std::isfinite(s.inputs(r, c)))
+        unwritable("input " + quoted(s.input_names[static_cast<std::size_t>(c)]) + " at " + row_at(r) + ": value " +
+                   quoted(format_number(s.inputs(r, c))) + " is not finite");
+    for (Eigen::Index c = 0; c < s.outputs.cols(); ++c)
+      if (std::isinf(s.outputs(r, c)))  // NaN is an empty cell (no measurement)
+        unwritable("output " + quoted(s.output_names[static_cast<std::size_t>(c)]) + " at " + row_at(r) + ": value " +
+                   quoted(format_number(s.outputs(r, c))) + " is infinite");
+  }
+}
+
+void write_rows(std::ostream& out, const Scenario& s) {
+  const auto n = static_cast<Eigen::Index>(s.time_s.size());
   std::string row = "time_s";
   for (const auto& name : s.input_names) row.append(",").append(name);
   for (const auto& name : s.output_names) row.append(",").append(name);
@@ -226,19 +337,36 @@ void write_scenario_csv(std::ostream& out, const Scenario& s) {
   }
 }
 
+}  // namespace
+
+void write_scenario_csv(std::ostream& out, const Scenario& s) {
+  check_writable(s);
+  write_rows(out, s);
+}
+
 void write_scenario_csv(const std::filesystem::path& path, const Scenario& s) {
+  check_writable(s);  // before any file is touched
   const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(tmp.string() + ": cannot open file for writing");
-    write_scenario_csv(out, s);
-    out.flush();
+  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(tmp.string() + ": cannot open file for writing");
+  // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.
+  const auto discard = [&tmp] {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+  };
+  try {
+    write_rows(out, s);
+    out.close();
     if (!out) throw std::runtime_error(tmp.string() + ": write failed (disk full?)");
+  } catch (...) {
+    out.close();
+    discard();
+    throw;
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
-    std::filesystem::remove(tmp);
+    discard();
     throw std::runtime_error(path.string() + ": cannot rename temporary file into place: " + ec.message());
   }
 }

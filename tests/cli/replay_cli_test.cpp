@@ -1,6 +1,8 @@
 // alc replay from the command line: JSON shape, --stop-at / --resume, a run killed with SIGKILL,
 // and errors. Runs the built program.
 #include <catch2/catch.hpp>
+
+#include "../cli_support.hpp"
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,38 +14,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-  int exit_code = -1;
-  int signal = 0;
-  std::string out, err;
-};
+using Run = alc_test::CliRun;
+using alc_test::slurp;
 
-fs::path work_dir() {
-  const fs::path dir = fs::temp_directory_path() / ("alc_replay_cli_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path work_dir() { return alc_test::work_dir("replay_cli_test"); }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-Run alc(const std::string& args) {
-  const fs::path dir = work_dir();
-  const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >\"" + (dir / "out").string() +
-                          "\" 2>\"" + (dir / "err").string() + "\"";
-  const int status = std::system(cmd.c_str());
-  Run r;
-  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-  // /bin/sh reports a child killed by signal N as exit status 128 + N.
-  if (r.exit_code > 128) r.signal = r.exit_code - 128;
-  r.out = slurp(dir / "out");
-  r.err = slurp(dir / "err");
-  return r;
-}
+Run alc(const std::string& args) { return alc_test::run_alc(args, "replay_cli_test"); }
 
 nlohmann::json indicators_of(const std::string& text) {
   nlohmann::json j = nlohmann::json::parse(text);
@@ -125,6 +101,12 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   const Run unknown = alc("replay --case Z");
   CHECK(unknown.exit_code == 2);
   CHECK_THAT(unknown.err, Catch::Matchers::Contains("unknown load case 'Z'"));
+  const Run negative_seed = alc("replay --case A --seed -1");  // CLI11 alone would wrap it to 2^64 - 1
+  CHECK(negative_seed.exit_code == 2);
+  CHECK_THAT(negative_seed.err, Catch::Matchers::Contains("--seed must be a whole number from 0 to 18446744073709551615, got '-1'"));
+  const Run bad_refresh = alc("replay --case A --structure-refresh 0.5");
+  CHECK(bad_refresh.exit_code == 2);
+  CHECK_THAT(bad_refresh.err, Catch::Matchers::Contains("structure_refresh = 0.5"));
   const Run missing = alc("replay /nonexistent/rec.csv");
   CHECK(missing.exit_code == 1);
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));

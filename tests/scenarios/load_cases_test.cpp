@@ -1,5 +1,7 @@
 // Load cases A–D and S16: what the sensors and the probe give, determinism, and magnitudes.
 #include <catch2/catch.hpp>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -156,7 +158,8 @@ TEST_CASE("load cases: magnitudes like a real machine") {
 }
 
 TEST_CASE("load cases: the same case and seed give a byte-identical CSV") {
-  const auto dir = std::filesystem::temp_directory_path() / "alc_twin_determinism";
+  // One directory per test process: a release and a sanitizer run of this test may run at once.
+  const auto dir = std::filesystem::temp_directory_path() / ("alc_twin_determinism_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   for (const std::string name : {"A", "B", "C", "D", "S16"}) {
     INFO("case " << name);

@@ -1,10 +1,15 @@
 // Scenario CSV contract: round trip, any number of columns, and every rejected input class.
 #include <catch2/catch.hpp>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include "scenarios/scenario_csv.hpp"
 
@@ -27,6 +32,50 @@ ScenarioCsvError rejected(const std::string& text) {
     return e;
   }
   FAIL("the text was accepted: " << text);
+  throw std::logic_error("unreachable");
+}
+
+// The full message of a rejected text.
+std::string message_of(const std::string& text) { return rejected(text).what(); }
+
+// A directory of this test process: the release and the sanitizer runs may run at the same time.
+std::filesystem::path own_temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+std::string file_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A small scenario that the writer accepts: 3 rows, inputs T and n, outputs E_X and E_A.
+Scenario writable() {
+  Scenario s;
+  s.input_names = {"T", "n"};
+  s.output_names = {"E_X", "E_A"};
+  s.time_s = {0.0, 60.0, 120.0};
+  s.inputs.resize(3, 2);
+  s.inputs << 20.0, 0.0, 20.5, 100.0, 21.0, 0.0;
+  s.outputs.resize(3, 2);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  s.outputs << 1.5, nan, nan, -2.0, 3.0, 4.0;
+  return s;
+}
+
+// What write_scenario_csv(stream) says about `s`; it must throw before writing anything.
+std::string write_refused(const Scenario& s) {
+  std::ostringstream out;
+  try {
+    alc::scenarios::write_scenario_csv(out, s);
+  } catch (const std::invalid_argument& e) {
+    CHECK(out.str().empty());
+    return e.what();
+  }
+  FAIL("the scenario was written:\n" << out.str());
   throw std::logic_error("unreachable");
 }
 
@@ -58,7 +107,7 @@ TEST_CASE("scenario CSV: a 16-sensor, 5-output recording at 15 s sampling loads"
   std::mt19937_64 rng(7);
   std::normal_distribution<double> noise(0.0, 1.0);
   Scenario s;
-  for (int i = 0; i < 16; ++i) s.input_names.push_back("T" + std::to_string(i + 1));
+  for (int i = 0; i < 16; ++i) s.input_names.push_back(std::string("T").append(std::to_string(i + 1)));
   s.input_names.push_back("S_spindle");
   for (const char* e : {"E_X", "E_Y", "E_Z", "E_X2", "E_Y2"}) s.output_names.push_back(e);
   const int n = 46 * 240;  // 46 h at 15 s
@@ -102,10 +151,12 @@ TEST_CASE("scenario CSV: write then read gives the same numbers, also through a 
     s.inputs(r, 1) = std::ldexp(u(rng), -40);  // tiny values need exponent form to round-trip
     s.outputs(r, 0) = (r % 3 == 0) ? u(rng) : std::numeric_limits<double>::quiet_NaN();
   }
-  const auto path = std::filesystem::temp_directory_path() / "alc_roundtrip_test.csv";
+  const auto dir = own_temp_dir("alc_roundtrip_test");
+  const auto path = dir / "roundtrip.csv";
   alc::scenarios::write_scenario_csv(path, s);
   const Scenario back = alc::scenarios::read_scenario_csv(path);
-  std::filesystem::remove(path);
+  CHECK_FALSE(std::filesystem::exists(dir / "roundtrip.csv.tmp"));
+  std::filesystem::remove_all(dir);
   CHECK(back.time_s == s.time_s);
   CHECK(back.inputs == s.inputs);
   for (int r = 0; r < n; ++r) {
@@ -128,12 +179,14 @@ TEST_CASE("scenario CSV: an empty file is rejected") {
   const auto e = rejected("");
   CHECK(std::string(e.what()) == "case.csv: the file is empty (no header line)");
   CHECK(rejected("\n\n  \n").reason == "the file is empty (no header line)");
+  CHECK(message_of("\r\n\n") == "case.csv: the file is empty (no header line)");
 }
 
 TEST_CASE("scenario CSV: a header without data rows is rejected") {
   const auto e = rejected("time_s,T,E_X0C\n");
   CHECK(e.line == 1);
   CHECK(e.reason == "no data rows after the header");
+  CHECK(std::string(e.what()) == "case.csv:1: no data rows after the header");
 }
 
 TEST_CASE("scenario CSV: a missing time_s column is rejected with the header line") {
@@ -141,6 +194,12 @@ TEST_CASE("scenario CSV: a missing time_s column is rejected with the header lin
   CHECK(e.line == 1);
   CHECK(std::string(e.what()) ==
         "case.csv:1: missing required column 'time_s' in header: value 't,T_ENV,E_X0C'");
+  // A long header is cut to 60 bytes, never inside a UTF-8 character ("°" is 2 bytes, at 59-60).
+  const std::string long_header = "t," + std::string(57, 'a') + "\xC2\xB0" + "C,E_X0C";
+  const auto cut = rejected(long_header + "\n0,1,2\n");
+  CHECK(cut.value == "t," + std::string(57, 'a') + "…");
+  CHECK(std::string(cut.what()) ==
+        "case.csv:1: missing required column 'time_s' in header: value 't," + std::string(57, 'a') + "…'");
 }
 
 TEST_CASE("scenario CSV: a file with no E_ column or no input column is rejected") {
@@ -149,6 +208,13 @@ TEST_CASE("scenario CSV: a file with no E_ column or no input column is rejected
   CHECK(no_output.reason == "no measured-error column (a name starting with 'E_') in header");
   const auto no_input = rejected("time_s,E_X0C\n0,1\n");
   CHECK(no_input.reason == "no input column (any column other than time_s and E_…) in header");
+  CHECK(std::string(no_output.what()) ==
+        "case.csv:1: no measured-error column (a name starting with 'E_') in header: value 'time_s,T_ENV'");
+  CHECK(std::string(no_input.what()) ==
+        "case.csv:1: no input column (any column other than time_s and E_…) in header: value 'time_s,E_X0C'");
+  // "E_" alone is not an error name, so it is an input.
+  CHECK(message_of("time_s,E_\n0,1\n") ==
+        "case.csv:1: no measured-error column (a name starting with 'E_') in header: value 'time_s,E_'");
 }
 
 TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
@@ -159,6 +225,17 @@ TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
   const auto empty = rejected("time_s,,E_X0C\n0,1,2\n");
   CHECK(empty.column == 2);
   CHECK(empty.reason == "empty column name in header");
+  CHECK(dup.value == "time_s,T,T,E_X0C");
+  CHECK(std::string(dup.what()) ==
+        "case.csv:1:3: duplicate column name in header, first at column 2 (column 'T'): value 'time_s,T,T,E_X0C'");
+  CHECK(std::string(empty.what()) == "case.csv:1:2: empty column name in header: value 'time_s,,E_X0C'");
+  // Quotes around a name are dropped, so "T" and T are the same name; the BOM is not part of a name.
+  CHECK(message_of("\xEF\xBB\xBFtime_s,\"T\",T,E_X0C\n0,1,2,3\n") ==
+        "case.csv:1:3: duplicate column name in header, first at column 2 (column 'T'): value 'time_s,\"T\",T,E_X0C'");
+  CHECK(message_of("time_s,T,E_X0C,time_s\n0,1,2,3\n") ==
+        "case.csv:1:4: duplicate column name in header, first at column 1 (column 'time_s'): "
+        "value 'time_s,T,E_X0C,time_s'");
+  CHECK(message_of("time_s,T,E_X0C,\n0,1,2,3\n") == "case.csv:1:4: empty column name in header: value 'time_s,T,E_X0C,'");
 }
 
 TEST_CASE("scenario CSV: time not strictly increasing is rejected at its line and column") {
@@ -183,6 +260,25 @@ TEST_CASE("scenario CSV: a non-numeric cell is rejected naming line, column and 
   CHECK(e.reason == "not a number");
   CHECK(std::string(e.what()) == "case.csv:3:2: not a number (column 'T_ENV'): value '20.x'");
   CHECK(rejected("time_s,T,E_X0C\n0,1,abc\n").column_name == "E_X0C");
+  CHECK(message_of("time_s,T,E_X0C\n0,1,2\n1,2,3 4\n") == "case.csv:3:3: not a number (column 'E_X0C'): value '3 4'");
+  CHECK(message_of("time_s,T,E_X0C\n0x10,1,2\n") == "case.csv:2:1: not a number (column 'time_s'): value '0x10'");
+}
+
+TEST_CASE("scenario CSV: one leading '+' is accepted, '+-5', '++5' and '+' are not numbers") {
+  for (const std::string bad : {"+-5", "++5", "+", "-+5", "--5", "+-0", "+ 5"}) {
+    INFO(bad);
+    const auto e = rejected("time_s,T,E_X0C\n0," + bad + ",1\n");
+    CHECK(e.reason == "not a number");
+    CHECK(std::string(e.what()) == "case.csv:2:2: not a number (column 'T'): value '" + bad + "'");
+  }
+  const Scenario s = parse("time_s,T,E_X0C\n+0,+5,-5\n+1e-3,-5,1e-3\n2,+.5,+2.5E+1\n");
+  CHECK(s.time_s == std::vector<double>{0.0, 1e-3, 2.0});
+  CHECK(s.inputs(0, 0) == 5.0);
+  CHECK(s.inputs(1, 0) == -5.0);
+  CHECK(s.inputs(2, 0) == 0.5);
+  CHECK(s.outputs(0, 0) == -5.0);
+  CHECK(s.outputs(1, 0) == 1e-3);
+  CHECK(s.outputs(2, 0) == 25.0);
 }
 
 TEST_CASE("scenario CSV: non-finite cells are rejected") {
@@ -192,17 +288,36 @@ TEST_CASE("scenario CSV: non-finite cells are rejected") {
     CHECK(e.column == 2);
     CHECK(e.value == bad);
     CHECK((e.reason == "not a finite number" || e.reason == "number out of range"));
+    CHECK(std::string(e.what()) == "case.csv:3:2: " + e.reason + " (column 'T'): value '" + bad + "'");
   }
+  CHECK(rejected("time_s,T,E_X0C\n0,1,2\n60,inf,3\n").reason == "not a finite number");
+  CHECK(rejected("time_s,T,E_X0C\n0,1,2\n60,1e999,3\n").reason == "number out of range");
+  CHECK(message_of("time_s,T,E_X0C\n0,1,+inf\n") == "case.csv:2:3: not a finite number (column 'E_X0C'): value '+inf'");
 }
 
 TEST_CASE("scenario CSV: a wrong number of cells is rejected") {
   const auto few = rejected("time_s,T,E_X0C\n0,1,2\n60,1\n");
   CHECK(few.line == 3);
-  CHECK(few.reason == "wrong number of cells: 2 where the header has 3");
+  CHECK(few.reason == "wrong number of cells: 2 where the header has 3, the row ends before this column");
   CHECK(few.value == "60,1");
   const auto many = rejected("time_s,T,E_X0C\n0,1,2,4\n");
   CHECK(many.line == 2);
-  CHECK(many.reason == "wrong number of cells: 4 where the header has 3");
+  CHECK(many.reason ==
+        "wrong number of cells: 4 where the header has 3, this cell is beyond the last column 'E_X0C'");
+  // The first missing column by number and header name; the first extra cell by number.
+  CHECK(few.column == 3);
+  CHECK(few.column_name == "E_X0C");
+  CHECK(std::string(few.what()) == "case.csv:3:3: wrong number of cells: 2 where the header has 3, the row ends "
+                                   "before this column (column 'E_X0C'): value '60,1'");
+  CHECK(many.column == 4);
+  CHECK(many.column_name.empty());
+  CHECK(many.value == "0,1,2,4");
+  CHECK(std::string(many.what()) == "case.csv:2:4: wrong number of cells: 4 where the header has 3, this cell is "
+                                    "beyond the last column 'E_X0C': value '0,1,2,4'");
+  CHECK(message_of("time_s,T,E_X0C,E_Y0C\n0\n") == "case.csv:2:2: wrong number of cells: 1 where the header has 4, "
+                                                    "the row ends before this column (column 'T'): value '0'");
+  CHECK(message_of("time_s,T,E_X0C\r\n0,1,2,\r\n") == "case.csv:2:4: wrong number of cells: 4 where the header has "
+                                                       "3, this cell is beyond the last column 'E_X0C': value '0,1,2,'");
 }
 
 TEST_CASE("scenario CSV: empty cells are allowed only in E_ columns") {
@@ -211,6 +326,10 @@ TEST_CASE("scenario CSV: empty cells are allowed only in E_ columns") {
   CHECK(e.column == 2);
   CHECK(e.reason == "empty cell: only measured-error (E_) columns may be empty");
   CHECK(rejected("time_s,T,E_X0C\n,1,2\n").column_name == "time_s");
+  CHECK(std::string(e.what()) ==
+        "case.csv:2:2: empty cell: only measured-error (E_) columns may be empty (column 'T'): value ''");
+  CHECK(message_of("time_s,T,E_X0C\n0,1,2\n\n60, ,\n") ==
+        "case.csv:4:2: empty cell: only measured-error (E_) columns may be empty (column 'T'): value ''");
 }
 
 TEST_CASE("scenario CSV: a missing file names the path") {
@@ -222,9 +341,50 @@ TEST_CASE("scenario CSV: a missing file names the path") {
   }
 }
 
+TEST_CASE("scenario CSV: a directory or another non-regular file is not reported as empty") {
+  const auto dir = own_temp_dir("alc_csv_dir_test");
+  try {
+    alc::scenarios::read_scenario_csv(dir);
+    FAIL("a directory was read");
+  } catch (const ScenarioCsvError& e) {
+    CHECK(std::string(e.what()) == dir.string() + ": not a regular file (a directory)");
+    CHECK(e.line == 0);
+  }
+  try {
+    alc::scenarios::read_scenario_csv("/dev/null");
+    FAIL("/dev/null was read");
+  } catch (const ScenarioCsvError& e) {
+    CHECK(std::string(e.what()) ==
+          "/dev/null: not a regular file (a character device) and nothing could be read from it");
+  }
+  // A pipe is read like a file (a shell's <(...)), and an empty pipe says what it is.
+  const auto fifo = dir / "pipe.csv";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  for (const std::string& text : {std::string("time_s,T,E_X0C\n0,1,2\n"), std::string()}) {
+    std::thread writer([&] { std::ofstream(fifo, std::ios::binary) << text; });
+    try {
+      const Scenario s = alc::scenarios::read_scenario_csv(fifo);
+      CHECK_FALSE(text.empty());
+      CHECK(s.samples() == 1);
+    } catch (const ScenarioCsvError& e) {
+      CHECK(text.empty());
+      CHECK(std::string(e.what()) == fifo.string() + ": not a regular file (a pipe) and nothing could be read from it");
+    }
+    writer.join();
+  }
+  // An empty regular file is just empty.
+  { std::ofstream(dir / "empty.csv"); }
+  try {
+    alc::scenarios::read_scenario_csv(dir / "empty.csv");
+    FAIL("an empty file was read");
+  } catch (const ScenarioCsvError& e) {
+    CHECK(std::string(e.what()) == (dir / "empty.csv").string() + ": the file is empty (no header line)");
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("scenario CSV: a failed write leaves an existing file untouched") {
-  const auto dir = std::filesystem::temp_directory_path() / "alc_csv_ro_test";
-  std::filesystem::create_directories(dir);
+  const auto dir = own_temp_dir("alc_csv_ro_test");
   const auto path = dir / "keep.csv";
   { std::ofstream(path) << "original\n"; }
   Scenario bad;  // sizes do not match: writing must throw before the original is replaced
@@ -236,5 +396,122 @@ TEST_CASE("scenario CSV: a failed write leaves an existing file untouched") {
   std::string text;
   std::getline(in, text);
   CHECK(text == "original");
+  CHECK_FALSE(std::filesystem::exists(dir / "keep.csv.tmp"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("scenario CSV: the writer refuses what its reader would reject, naming the field, row and value") {
+  {
+    std::stringstream text;
+    alc::scenarios::write_scenario_csv(text, writable());
+    CHECK(text.str() == "time_s,T,n,E_X,E_A\n0,20,0,1.5,\n60,20.5,100,,-2\n120,21,0,3,4\n");
+    CHECK(parse_scenario_csv(text, "w.csv").samples() == 3);
+  }
+  const auto with = [](auto change) {
+    Scenario s = writable();
+    change(s);
+    return write_refused(s);
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // Names.
+  CHECK(with([](Scenario& s) { s.input_names[0] = "T,1"; }) ==
+        "write_scenario_csv: input name 1 'T,1' contains a comma, a quote or a line break");
+  CHECK(with([](Scenario& s) { s.output_names[1] = "E_\"A\""; }) ==
+        "write_scenario_csv: output name 2 'E_\"A\"' contains a comma, a quote or a line break");
+  CHECK(with([](Scenario& s) { s.input_names[1] = "n\r"; }) ==
+        "write_scenario_csv: input name 2 'n\r' contains a comma, a quote or a line break");
+  CHECK(with([](Scenario& s) { s.input_names[1] = "a\nb"; }) ==
+        "write_scenario_csv: input name 2 'a\nb' contains a comma, a quote or a line break");
+  CHECK(with([](Scenario& s) { s.input_names[1].clear(); }) == "write_scenario_csv: input name 2 is empty");
+  CHECK(with([](Scenario& s) { s.output_names[0].clear(); }) == "write_scenario_csv: output name 1 is empty");
+  CHECK(with([](Scenario& s) { s.input_names[1] = "T"; }) == "write_scenario_csv: input name 2 'T' is a duplicate");
+  CHECK(with([](Scenario& s) { s.output_names[1] = "E_X"; }) == "write_scenario_csv: output name 2 'E_X' is a duplicate");
+  CHECK(with([](Scenario& s) { s.input_names[0] = "time_s"; }) ==
+        "write_scenario_csv: input name 1 'time_s': time_s is written as the first column");
+  CHECK(with([](Scenario& s) { s.output_names[0] = "time_s"; }) ==
+        "write_scenario_csv: output name 1 'time_s': time_s is written as the first column");
+  CHECK(with([](Scenario& s) { s.input_names[0] = " T"; }) ==
+        "write_scenario_csv: input name 1 ' T' starts or ends with a space or tab");
+  CHECK(with([](Scenario& s) { s.output_names[0] = "E_X\t"; }) ==
+        "write_scenario_csv: output name 1 'E_X\t' starts or ends with a space or tab");
+  CHECK(with([](Scenario& s) { s.input_names[1] = "E_n"; }) ==
+        "write_scenario_csv: input name 2 'E_n' starts with 'E_', which marks a measured error");
+  CHECK(with([](Scenario& s) { s.output_names[1] = "A"; }) ==
+        "write_scenario_csv: output name 2 'A' is not a measured-error name ('E_' and at least one more character)");
+  CHECK(with([](Scenario& s) { s.output_names[1] = "E_"; }) ==
+        "write_scenario_csv: output name 2 'E_' is not a measured-error name ('E_' and at least one more character)");
+  // Values.
+  CHECK(with([&](Scenario& s) { s.inputs(1, 0) = inf; }) ==
+        "write_scenario_csv: input 'T' at row 2 (line 3): value 'inf' is not finite");
+  CHECK(with([&](Scenario& s) { s.inputs(2, 1) = nan; }) ==
+        "write_scenario_csv: input 'n' at row 3 (line 4): value 'nan' is not finite");
+  CHECK(with([&](Scenario& s) { s.outputs(2, 1) = -inf; }) ==
+        "write_scenario_csv: output 'E_A' at row 3 (line 4): value '-inf' is infinite");
+  CHECK(with([](Scenario& s) { s.time_s[2] = 60.0; }) ==
+        "write_scenario_csv: time_s at row 3 (line 4): value '60' is not greater than the previous row's '60'");
+  CHECK(with([](Scenario& s) { s.time_s[1] = -1.5; }) ==
+        "write_scenario_csv: time_s at row 2 (line 3): value '-1.5' is not greater than the previous row's '0'");
+  CHECK(with([&](Scenario& s) { s.time_s[0] = nan; }) ==
+        "write_scenario_csv: time_s at row 1 (line 2): value 'nan' is not finite");
+  CHECK(with([&](Scenario& s) { s.time_s[2] = inf; }) ==
+        "write_scenario_csv: time_s at row 3 (line 4): value 'inf' is not finite");
+  // Shape.
+  CHECK(with([](Scenario& s) { s.time_s.pop_back(); }) ==
+        "write_scenario_csv: matrix sizes do not match the names and time_s");
+  CHECK(with([](Scenario& s) {
+          s.output_names.clear();
+          s.outputs.resize(3, 0);
+        }) == "write_scenario_csv: no measured-error (E_) column");
+}
+
+TEST_CASE("scenario CSV: the writer writes result files without inputs or rows (alc replay --residuals)") {
+  Scenario s = writable();
+  s.input_names.clear();
+  s.inputs.resize(3, 0);
+  s.output_names = {"E_X", "E_X_pred"};
+  std::ostringstream text;
+  alc::scenarios::write_scenario_csv(text, s);
+  CHECK(text.str() == "time_s,E_X,E_X_pred\n0,1.5,\n60,,-2\n120,3,4\n");
+  s.time_s.clear();
+  s.inputs.resize(0, 0);
+  s.outputs.resize(0, 2);
+  std::ostringstream header_only;
+  alc::scenarios::write_scenario_csv(header_only, s);
+  CHECK(header_only.str() == "time_s,E_X,E_X_pred\n");
+}
+
+TEST_CASE("scenario CSV: a refused or failed file write leaves no temporary file and the target as it was") {
+  const auto dir = own_temp_dir("alc_csv_refused_test");
+  const auto path = dir / "keep.csv";
+  const auto tmp = dir / "keep.csv.tmp";
+  { std::ofstream(path, std::ios::binary) << "original\n"; }
+  Scenario bad = writable();
+  bad.time_s[1] = 0.0;
+  try {
+    alc::scenarios::write_scenario_csv(path, bad);
+    FAIL("the scenario was written");
+  } catch (const std::invalid_argument& e) {
+    CHECK(std::string(e.what()) ==
+          "write_scenario_csv: time_s at row 2 (line 3): value '0' is not greater than the previous row's '0'");
+  }
+  CHECK(file_text(path) == "original\n");
+  CHECK_FALSE(std::filesystem::exists(tmp));
+  // A stale temporary file of an earlier crash is not taken for ours: a refused write leaves it be.
+  { std::ofstream(tmp, std::ios::binary) << "stale\n"; }
+  CHECK_THROWS_AS(alc::scenarios::write_scenario_csv(path, bad), std::invalid_argument);
+  CHECK(file_text(tmp) == "stale\n");
+  // A good write replaces both.
+  alc::scenarios::write_scenario_csv(path, writable());
+  CHECK(file_text(path) == "time_s,T,n,E_X,E_A\n0,20,0,1.5,\n60,20.5,100,,-2\n120,21,0,3,4\n");
+  CHECK_FALSE(std::filesystem::exists(tmp));
+  // The rename fails (the target is a directory that is not empty): the temporary file goes, the
+  // directory stays.
+  const auto target_dir = dir / "taken.csv";
+  std::filesystem::create_directories(target_dir);
+  { std::ofstream(target_dir / "inside", std::ios::binary) << "x"; }
+  CHECK_THROWS_AS(alc::scenarios::write_scenario_csv(target_dir, writable()), std::runtime_error);
+  CHECK_FALSE(std::filesystem::exists(dir / "taken.csv.tmp"));
+  CHECK(file_text(target_dir / "inside") == "x");
   std::filesystem::remove_all(dir);
 }

@@ -1,5 +1,7 @@
 // `alc simulate` end to end: runs the built binary (ALC_CLI_PATH) and reads what it wrote.
 #include <catch2/catch.hpp>
+
+#include "../cli_support.hpp"
 #include <unistd.h>
 #include <cstdlib>
 #include <filesystem>
@@ -16,36 +18,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using CliResult = alc_test::CliRun;
+using alc_test::slurp;
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+fs::path work_dir() { return alc_test::work_dir("simulate_cli_test"); }
 
-fs::path work_dir() {
-  // One directory per test process: ctest -j runs the test cases as parallel processes.
-  const fs::path dir = fs::temp_directory_path() / ("alc_simulate_cli_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
-
-// Runs `alc ARGS` with stdout and stderr captured in files.
-CliResult run_alc(const std::string& args) {
-  const fs::path dir = work_dir();
-  const std::string command = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >\"" + (dir / "stdout").string() +
-                              "\" 2>\"" + (dir / "stderr").string() + "\"";
-  const int status = std::system(command.c_str());
-  CliResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(dir / "stdout");
-  r.err = slurp(dir / "stderr");
-  return r;
-}
+CliResult run_alc(const std::string& args) { return alc_test::run_alc(args, "simulate_cli_test"); }
 
 }  // namespace
 
@@ -61,6 +39,17 @@ TEST_CASE("alc simulate: --case C --out writes a file that the reader loads, equ
   CHECK(read.time_s == expected.time_s);
   CHECK(read.inputs == expected.inputs);
   CHECK(read.outputs.rows() == expected.outputs.rows());
+}
+
+TEST_CASE("alc simulate: the largest seed, 2^64 - 1, is taken as given") {
+  const fs::path file = work_dir() / "s16_max_seed.csv";
+  const CliResult r = run_alc("simulate --case S16 --seed 18446744073709551615 --out \"" + file.string() + "\"");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const sc::Scenario read = sc::read_scenario_csv(file);
+  const sc::Scenario expected = sc::simulate_case("S16", 18446744073709551615ULL).scenario;
+  CHECK(read.time_s == expected.time_s);
+  CHECK(read.inputs == expected.inputs);
 }
 
 TEST_CASE("alc simulate: --seed changes the file, the same seed reproduces it byte for byte") {
@@ -99,7 +88,7 @@ TEST_CASE("alc simulate: --case all --summary prints the figures of A-D") {
   CHECK_THAT(r.out, !Catch::Matchers::Contains("| S16 |"));
 }
 
-TEST_CASE("alc simulate: usage errors go to stderr with a non-zero exit") {
+TEST_CASE("alc simulate: usage errors go to stderr with exit code 2") {
   SECTION("unknown case") {
     const CliResult r = run_alc("simulate --case E --out x.csv");
     CHECK(r.exit_code == 2);
@@ -123,18 +112,40 @@ TEST_CASE("alc simulate: usage errors go to stderr with a non-zero exit") {
   }
   SECTION("a bad seed") {
     const CliResult r = run_alc("simulate --case A --seed many --out x.csv");
-    CHECK(r.exit_code != 0);
+    CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Matchers::Contains("--seed"));
+    CHECK_THAT(r.err, Catch::Matchers::Contains("got 'many'"));
+  }
+  SECTION("a negative seed is not wrapped to 2^64 - 1") {
+    for (const std::string seed : {"--seed -1", "--seed=-1", "--seed -0", "--seed ' 5'", "--seed 1.5", "--seed +5"}) {
+      INFO(seed);
+      const CliResult r = run_alc("simulate --case A " + seed + " --out x.csv");
+      CHECK(r.exit_code == 2);
+      CHECK_THAT(r.err, Catch::Matchers::Contains("--seed must be a whole number from 0 to 18446744073709551615"));
+      CHECK(r.out.empty());
+    }
+    CHECK_THAT(run_alc("simulate --case A --seed -1 --out x.csv").err, Catch::Matchers::Contains("got '-1'"));
+  }
+  SECTION("a seed beyond 2^64 - 1 is not clamped") {
+    const CliResult r = run_alc("simulate --case A --seed 18446744073709551616 --out x.csv");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("got '18446744073709551616'"));
   }
   SECTION("--list with --case") {
     const CliResult r = run_alc("simulate --list --case A");
-    CHECK(r.exit_code != 0);
-    CHECK(!r.err.empty());
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("--case excludes --list"));
   }
   SECTION("an unknown option") {
     const CliResult r = run_alc("simulate --case A --bogus");
-    CHECK(r.exit_code != 0);
+    CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Matchers::Contains("bogus"));
+    CHECK(r.out.empty());
+  }
+  SECTION("an option without its value") {
+    const CliResult r = run_alc("simulate --out x.csv --case");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("--case"));
   }
   CHECK_FALSE(fs::exists("x.csv"));
 }

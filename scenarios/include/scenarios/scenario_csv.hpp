@@ -27,12 +27,21 @@ class ScenarioCsvError : public std::runtime_error {
 
 // Parse a scenario from text; `source_name` is used in error messages (a path or "<stdin>").
 Scenario parse_scenario_csv(std::istream& in, const std::string& source_name);
+// A directory (or socket, block device) is rejected as "not a regular file (...)"; a pipe or a
+// character device is read like a file.
 Scenario read_scenario_csv(const std::filesystem::path& path);
 
 // Write columns time_s, inputs..., outputs... Numbers use the shortest text that reads back to
 // the same double, so write -> read is exact. Missing outputs (NaN) are written as empty cells.
+// Throws std::invalid_argument before writing anything, naming the field, row and value, for what
+// the reader would reject or read back differently: mismatched sizes, no output column, an empty,
+// duplicate or padded name or one with a comma, quote or line break, an input named time_s or E_…,
+// an output not named E_…, a non-finite time or input, an infinite output, or time_s not strictly
+// increasing. No input column and no rows are allowed (a result file such as `alc replay
+// --residuals` writes, which the reader would not take as a scenario).
 void write_scenario_csv(std::ostream& out, const Scenario& scenario);
-// Writes to a temporary file beside `path` and renames it, so a reader never sees half a file.
+// Writes to a temporary file beside `path` (PATH.tmp) and renames it, so a reader never sees half
+// a file. On any failure the temporary file is removed and an existing `path` is left untouched.
 void write_scenario_csv(const std::filesystem::path& path, const Scenario& scenario);
 
 // Shortest round-trip text of a finite double ("0.1", "-12.5", "1e-07").

@@ -1,0 +1,47 @@
+#pragma once
+// Running the built `alc` program (ALC_CLI_PATH) from a test: its exit code, stdout and stderr,
+// and a scratch directory per test process (ctest -j and the sanitizer run must not share files).
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+namespace alc_test {
+
+struct CliRun {
+  int exit_code = -1;
+  int signal = 0;        // the signal that ended the program (from /bin/sh's 128 + N), else 0
+  std::string out, err;
+};
+
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// <tmp>/alc_<tag>_<pid>, created on first use.
+inline std::filesystem::path work_dir(const std::string& tag) {
+  const auto dir = std::filesystem::temp_directory_path() / ("alc_" + tag + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// Runs `alc ARGS` (ARGS as a shell would split them) with stdin from /dev/null.
+inline CliRun run_alc(const std::string& args, const std::string& tag) {
+  const auto dir = work_dir(tag);
+  const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >\"" + (dir / "out").string() +
+                          "\" 2>\"" + (dir / "err").string() + "\" </dev/null";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  if (r.exit_code > 128) r.signal = r.exit_code - 128;
+  r.out = slurp(dir / "out");
+  r.err = slurp(dir / "err");
+  return r;
+}
+
+}  // namespace alc_test
