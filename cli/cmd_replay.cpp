@@ -54,6 +54,7 @@ struct ReplayArgs {
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;
   bool no_refit = false;
+  bool no_confirm = false;
   std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
@@ -82,6 +83,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   p.acl_linear_um = a.acl_lin;
   p.acl_angular_um_per_m = a.acl_ang;
   p.refit_on_probe = !a.no_refit;
+  p.confirm_breach = !a.no_refit && !a.no_confirm;
   p.structure_refresh = parse_tab1("--structure-refresh", a.structure_refresh, 1.0);
   p.learning_window_s = parse_tab1("--window", a.window, 3600.0);
   p.identification.forgetting_half_life_s = parse_tab1("--half-life", a.half_life, 3600.0);
@@ -196,6 +198,7 @@ std::string config_json(const ReplayArgs& a, const std::string& source) {
                       {"method", a.method},
                       {"max_order", a.max_order},
                       {"refit_on_probe", !a.no_refit},
+                      {"confirm_breach", !a.no_refit && !a.no_confirm},
                       {"structure_refresh", a.structure_refresh}};
   if (a.seed_given) j["seed"] = a.seed;
   return j.dump();
@@ -409,8 +412,12 @@ void add_replay_command(CLI::App& app) {
                   "redone when the data span has grown by this factor since the last one (1: always, inf: never)")
       ->capture_default_str();
   cmd->add_flag("--no-refit", args->no_refit,
-                "Re-identify only at the end of CP, after NG and at --update (the paper's literal reading); "
-                "by default every Post-CP probe within the ACL is learned from too");
+                "The paper's literal loop: re-identify only at the end of CP, after NG and at --update, and every "
+                "breach starts a full NG burst (implies --no-confirm); by default every Post-CP probe within the "
+                "ACL is learned from too");
+  cmd->add_flag("--no-confirm", args->no_confirm,
+                "Learn from a breaching probe at once; by default the first NG probe must confirm the breach, and an "
+                "unconfirmed one is set aside as an outlier and ends NG");
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
   cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -39,6 +40,7 @@ std::string_view to_string(ControllerEvent::Type type) {
     case ControllerEvent::Type::ModelUpdate: return "model_update";
     case ControllerEvent::Type::ModelRejected: return "model_rejected";
     case ControllerEvent::Type::AclBreach: return "acl_breach";
+    case ControllerEvent::Type::OutlierRejected: return "outlier_rejected";
   }
   return "?";
 }
@@ -228,8 +230,10 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
 
   // Residual against the prediction that was active when the probe ran.
   std::vector<std::size_t> breaches;
+  Eigen::VectorXd residuals = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
   for (Eigen::Index i = 0; i < n; ++i) {
     const double residual = record.errors[i] - state_.prediction[i];
+    residuals(i) = residual;
     if (std::isnan(residual)) continue;
     const auto k = static_cast<std::size_t>(i);
     if (std::abs(residual) > acl_of(k)) {
@@ -265,15 +269,65 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
         ++state_.ng_phases;
         state_.ng_probes = 0;
         change_phase(Phase::NoGood, t, out, "ACL breach on " + output_names_[breaches.front()]);
-        // The model is known to be wrong now: learn from the breaching probe at once instead of
-        // compensating with it for the whole NG burst; the NG update follows with more data.
-        if (params_.refit_on_probe) reidentify(t, out, "ACL breach, immediate update before the NG burst");
+        if (params_.confirm_breach) {
+          // Wait for the first NG probe: a chip on the sphere breaches once, a thermal change stays.
+          state_.breach_probe = static_cast<int>(state_.probes.size()) - 1;
+          state_.breach_residual = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+          for (const std::size_t k : breaches)
+            state_.breach_residual(static_cast<Eigen::Index>(k)) = residuals(static_cast<Eigen::Index>(k));
+        } else if (params_.refit_on_probe) {
+          // The model is known to be wrong now: learn from the breaching probe at once instead of
+          // compensating with it for the whole NG burst; the NG update follows with more data.
+          reidentify(t, out, "ACL breach, immediate update before the NG burst");
+        }
         state_.next_probe_due_s = t + params_.ng_interval_s;
         set_interval(params_.ng_interval_s, t, out, "NG interval");
       }
       break;
     case Phase::NoGood: {
       ++state_.ng_probes;
+      if (state_.breach_probe >= 0) {
+        // The first NG probe judges the breach: confirmed when some breached output is still off
+        // the same way by more than half its ACL.
+        bool confirmed = false;
+        for (Eigen::Index i = 0; i < n; ++i) {
+          const double before = state_.breach_residual(i);
+          if (std::isnan(before) || std::isnan(residuals(i))) continue;
+          if (before * residuals(i) > 0.0 && std::abs(residuals(i)) > 0.5 * acl_of(static_cast<std::size_t>(i)))
+            confirmed = true;
+        }
+        const auto breach = static_cast<std::size_t>(state_.breach_probe);
+        state_.breach_probe = -1;
+        if (!confirmed) {
+          state_.probes[breach].weight = 0.0;
+          ControllerEvent e;
+          e.type = ControllerEvent::Type::OutlierRejected;
+          e.time_s = t;
+          e.from = e.to = state_.phase;
+          e.value = state_.probes[breach].time_s;
+          e.reason = "the breach of the probe at t = " + std::to_string(state_.probes[breach].time_s) +
+                     " s is not confirmed by the first NG probe: set aside as an outlier";
+          out.events.push_back(std::move(e));
+          if (!breaches.empty()) {
+            // This probe breaches on its own: it becomes the breach that the next NG probe judges.
+            state_.breach_probe = static_cast<int>(state_.probes.size()) - 1;
+            state_.breach_residual = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+            for (const std::size_t k : breaches)
+              state_.breach_residual(static_cast<Eigen::Index>(k)) = residuals(static_cast<Eigen::Index>(k));
+            state_.ng_probes = 0;
+            state_.next_probe_due_s = t + params_.ng_interval_s;
+            break;
+          }
+          if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL", true);
+          change_phase(Phase::PostCalibration, t, out, "breach not confirmed (outlier probe)");
+          state_.next_probe_due_s = t + params_.post_cp_interval_s;
+          set_interval(params_.post_cp_interval_s, t, out, "Post-CP interval");
+          break;
+        }
+        // The model is known to be wrong: learn from both probes at once instead of compensating
+        // with it for the whole NG burst; the NG update follows with more data.
+        if (params_.refit_on_probe) reidentify(t, out, "ACL breach confirmed by the first NG probe, immediate update");
+      }
       const bool finite_count = std::isfinite(params_.ng_measurements);
       if (finite_count && state_.ng_probes < params_.ng_measurements) {
         state_.next_probe_due_s = t + params_.ng_interval_s;

@@ -124,6 +124,8 @@ void encode_controller(Encoder& e, const ControllerState& c) {
   for (int v : {c.probe_cycles, c.ng_probes, c.ng_phases, c.updates, c.rejected_fits, c.probes_at_last_attempt})
     e.pod(v);
   e.pod(c.structure_span_s);
+  e.pod(c.breach_probe);
+  e.vec(c.breach_residual);
   e.names(c.history.input_names);
   e.doubles(c.history.time_s);
   e.mat(c.history.inputs);
@@ -155,6 +157,8 @@ ControllerState decode_controller(Decoder& d) {
   for (int* v : {&c.probe_cycles, &c.ng_probes, &c.ng_phases, &c.updates, &c.rejected_fits, &c.probes_at_last_attempt})
     *v = d.pod<int>();
   c.structure_span_s = d.pod<double>();
+  c.breach_probe = d.pod<int>();
+  c.breach_residual = d.vec();
   c.history.input_names = d.names();
   c.history.time_s = d.doubles();
   c.history.inputs = d.mat();
@@ -276,7 +280,7 @@ void HistoryRecorder::save_snapshot(const ReplaySession& session) {
   storage::ControllerSnapshot snap;
   snap.run_id = run_;
   snap.next_sample_index = static_cast<std::int64_t>(state.next_row);
-  snap.time_s = state.controller.started ? state.controller.now_s : -1.0;
+  snap.time_s = state.controller.started ? state.controller.now_s : storage::kSnapshotBeforeStart_s;
   snap.format = kReplayStateFormat;
   snap.is_json = false;
   snap.payload = encode_replay_state(state);

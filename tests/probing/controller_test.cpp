@@ -234,19 +234,62 @@ TEST_CASE("controller: a confirming probe keeps the structure until the data spa
   }
 }
 
-TEST_CASE("controller: with refit_on_probe an ACL breach is learned from at once, then again after NG") {
+TEST_CASE("controller: with refit_on_probe a breach confirmed by the first NG probe is learned from at once") {
   AlcParameters p = test_parameters();
   p.refit_on_probe = true;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
-  d.plant.offset_x = 12.0;
+  d.plant.offset_x = 12.0;  // a lasting change: the first NG probe (3 h 10) confirms the breach of 3 h
   d.run_until(3 * kHour + 31 * kMinute);
   std::vector<double> update_times;
   for (const auto& e : d.of_type(ControllerEvent::Type::ModelUpdate)) update_times.push_back(e.time_s);
-  // CP end, the breach itself (3 h), and the end of the 3-probe NG burst (3 h 30).
-  REQUIRE(update_times == std::vector<double>{2 * kHour, 3 * kHour, 3 * kHour + 30 * kMinute});
+  // CP end, the confirmation (3 h 10) and the end of the 3-probe NG burst (3 h 30).
+  REQUIRE(update_times == std::vector<double>{2 * kHour, 3 * kHour + 10 * kMinute, 3 * kHour + 30 * kMinute});
+  CHECK(d.of_type(ControllerEvent::Type::ModelUpdate)[1].reason.rfind("ACL breach confirmed by the first NG probe", 0) == 0);
+  CHECK(d.of_type(ControllerEvent::Type::OutlierRejected).empty());
   CHECK(d.controller.phase() == Phase::PostCalibration);
   CHECK(d.controller.state().ng_phases == 1);
+  for (const ProbeRecord& r : d.controller.state().probes) CHECK(r.weight == 1.0);
+
+  SECTION("confirm_breach = false learns from the breaching probe itself") {
+    p.confirm_breach = false;
+    Driver e(p);
+    e.run_until(3 * kHour - kMinute);
+    e.plant.offset_x = 12.0;
+    e.run_until(3 * kHour + 31 * kMinute);
+    std::vector<double> times;
+    for (const auto& u : e.of_type(ControllerEvent::Type::ModelUpdate)) times.push_back(u.time_s);
+    CHECK(times == std::vector<double>{2 * kHour, 3 * kHour, 3 * kHour + 30 * kMinute});
+  }
+}
+
+TEST_CASE("controller: a breach that the first NG probe does not confirm is set aside as an outlier") {
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;
+  Driver d(p);
+  d.run_until(3 * kHour - kMinute);
+  // A chip on the sphere: only the probe at 3 h reads 12 µm too much on E_X0C.
+  d.run_until(3 * kHour + kMinute, [&](double t) { d.plant.offset_x = t == 3 * kHour ? 12.0 : 0.0; });
+  d.run_until(6 * kHour + kMinute, [&](double) { d.plant.offset_x = 0.0; });
+  REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).size() == 1);
+  const auto rejected = d.of_type(ControllerEvent::Type::OutlierRejected);
+  REQUIRE(rejected.size() == 1);
+  CHECK(rejected[0].time_s == 3 * kHour + 10 * kMinute);  // judged by the first NG probe
+  CHECK(rejected[0].value == 3 * kHour);                  // the probe set aside
+  const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() == 3);                              // CP->Post-CP, Post-CP->NG, NG->Post-CP
+  CHECK(phases[1].to == Phase::NoGood);
+  CHECK(phases[2].to == Phase::PostCalibration);
+  CHECK(phases[2].time_s == 3 * kHour + 10 * kMinute);      // NG ends at once: no 3-probe burst
+  // The outlier has weight 0 and never reached a fit: the model still predicts the plant.
+  int set_aside = 0;
+  for (const ProbeRecord& r : d.controller.state().probes) set_aside += r.weight == 0.0 ? 1 : 0;
+  CHECK(set_aside == 1);
+  CHECK(d.controller.state().probes[static_cast<std::size_t>(d.probes - 1)].weight == 1.0);
+  const auto out = d.controller.on_tick(d.t);
+  CHECK_THAT(out.prediction[0], Catch::Matchers::WithinAbs(d.plant.errors()[0], 0.5));
+  // Post-CP resumes its hourly probes from the NG probe on.
+  CHECK(d.controller.state().next_probe_due_s > 6 * kHour);
 }
 
 TEST_CASE("controller: Post-CP interval inf means no probe after CP") {

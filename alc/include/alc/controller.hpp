@@ -30,6 +30,9 @@ struct AlcParameters {
   double update_interval_s = kInf;         // [s] periodic re-identification in Post-CP; inf: none
   bool refit_on_probe = true;              // re-identify after every Post-CP probe within the ACL too, so
                                            // each measurement is learned from (docs/identification.md)
+  bool confirm_breach = true;              // the first NG probe must confirm a breach (same sign, beyond half
+                                           // the ACL) before it is learned from; unconfirmed, the breaching
+                                           // probe is set aside as an outlier (weight 0) and NG ends
   double structure_refresh = 1.25;         // [-] a probe that confirms the model refits its parameters with
                                            //     the structure kept, unless the data span has grown by this
                                            //     factor since the last structure search (then a full search)
@@ -51,7 +54,7 @@ struct ProbeMeasurement {
 };
 
 struct ControllerEvent {
-  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach };
+  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach, OutlierRejected };
   Type type = Type::PhaseChange;
   double time_s = 0.0;           // [s]
   Phase from = Phase::Calibration;
@@ -88,6 +91,8 @@ struct ControllerState {
   int rejected_fits = 0;               // identifications that kept the previous model
   int probes_at_last_attempt = -1;     // probes seen at the last end-of-CP fit attempt
   double structure_span_s = 0.0;       // [s] span of the data used by the last structure search
+  int breach_probe = -1;               // index in `probes` of the probe that started NG, until confirmed
+  Eigen::VectorXd breach_residual;     // its residuals [µm] / [µm/m] (NaN where within the ACL)
   InputHistory history;                // all input samples
   std::vector<ProbeRecord> probes;     // all probe records (thermal error = measured + compensation)
   bool has_model = false;
