@@ -42,8 +42,12 @@ void run_info(const std::string& file) {
     if (!span.empty)
       std::cout << ", time_s " << span.first_s << " .. " << span.last_s << " (" << std::setprecision(4)
                 << (span.last_s - span.first_s) / 3600.0 << std::setprecision(6) << " h)";
-    if (const auto snapshot = reader.latest_snapshot(run.run_id))
-      std::cout << ", latest snapshot at time_s " << snapshot->time_s;
+    if (const auto snapshot = reader.latest_snapshot(run.run_id)) {
+      if (snapshot->time_s == storage::kSnapshotBeforeStart_s)
+        std::cout << ", latest snapshot before the first sample";
+      else
+        std::cout << ", latest snapshot at time_s " << snapshot->time_s;
+    }
     std::cout << "\n";
   }
   std::cout << "rows per table:\n";
@@ -61,6 +65,27 @@ void run_check(const std::string& file) {
   throw std::runtime_error(file + ": " + std::to_string(report.problems.size()) + " problem(s) found");
 }
 
+// Throws UsageError if `target` is the database FILE itself or one of its journal files
+// (FILE-wal, FILE-shm, FILE-journal), under any spelling: same path after resolving symlinks and
+// `.`/`..`, or the same file (hard link).
+void refuse_export_over_database(const std::string& file, const std::filesystem::path& target) {
+  namespace fs = std::filesystem;
+  std::error_code ec1, ec2;
+  const fs::path database = fs::weakly_canonical(fs::absolute(fs::path(file), ec1), ec1);
+  const fs::path out = fs::weakly_canonical(fs::absolute(target, ec2), ec2);
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+    const fs::path own = fs::path(file + suffix);
+    const fs::path own_canonical = database.string() + suffix;
+    std::error_code eq;
+    const bool same = (!ec1 && !ec2 && out == own_canonical) ||
+                      (fs::exists(own, eq) && fs::exists(target, eq) && fs::equivalent(own, target, eq));
+    if (same)
+      throw UsageError("--out '" + target.string() + "' is the history database" +
+                       (*suffix ? std::string(" journal '") + file + suffix + "'" : " '" + file + "'") +
+                       " itself; exporting there would replace it with CSV; choose another --out file");
+  }
+}
+
 void run_export(const std::string& file, const std::string& table, const std::string& out) {
   const auto& tables = storage::exportable_tables();
   if (std::find(tables.begin(), tables.end(), table) == tables.end()) {
@@ -72,8 +97,10 @@ void run_export(const std::string& file, const std::string& table, const std::st
     storage::export_table_csv(file, table, std::cout);
     return;
   }
-  // Written beside the target and renamed, so a reader never sees half a file.
+  // The rename below would replace the database (or its WAL journal) with CSV.
   const std::filesystem::path target(out);
+  refuse_export_over_database(file, target);
+  // Written beside the target and renamed, so a reader never sees half a file.
   std::filesystem::path temporary = target;
   temporary += ".tmp" + std::to_string(::getpid());
   {
@@ -99,6 +126,9 @@ void run_bench(const storage::BenchOptions& options, const std::string& dir) {
             << " records/s\n"
             << "unbatched (1 per transaction): " << result.unbatched_records_per_s << " records/s\n"
             << std::setprecision(1) << "ratio batched/unbatched: " << result.ratio() << "\n";
+  std::cout << "scratch databases (new files, removed afterwards; no existing file is touched):";
+  for (const auto& scratch : result.scratch_files) std::cout << " " << scratch.string();
+  std::cout << "\n";
 }
 
 }  // namespace
@@ -137,7 +167,8 @@ void add_db_command(CLI::App& app) {
   bench->add_option("--inputs", options->inputs, "Values per input sample")->capture_default_str()->check(CLI::PositiveNumber);
   bench->add_option("--batch", options->batch_size, "Records per transaction in the batched mode")
       ->capture_default_str()->check(CLI::PositiveNumber);
-  bench->add_option("--dir", *dir, "Directory for the temporary database")->capture_default_str();
+  bench->add_option("--dir", *dir, "Directory for the scratch databases (new files alc-bench-<pid>-<n>.sqlite, "
+                                   "removed afterwards)")->capture_default_str();
   bench->callback([options, dir] { run_bench(*options, *dir); });
 
   db->add_subcommand("path", "Print the default history database location")->callback([] {

@@ -1,8 +1,14 @@
 // `alc db bench`: records per second written, batched against one transaction per record.
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "storage/history_tools.hpp"
 #include "storage/history_writer.hpp"
@@ -12,9 +18,43 @@ namespace alc::storage {
 
 namespace {
 
-// Writes a synthetic run (a sample and a prediction per step) and returns the elapsed seconds.
-double write_run(const std::filesystem::path& file, const BenchOptions& options, std::size_t batch_size) {
-  std::filesystem::remove(file);
+// Creates a new, empty file `alc-bench-<pid>-<n>.sqlite` in `directory` (O_EXCL: never one that
+// exists, nor one that another process claims at the same moment). A writer takes a zero-byte file
+// as a new database.
+std::filesystem::path claim_scratch_file(const std::filesystem::path& directory, std::size_t first) {
+  for (std::size_t n = first; n < first + 1000; ++n) {
+    const auto file = directory / ("alc-bench-" + std::to_string(::getpid()) + "-" + std::to_string(n) + ".sqlite");
+    std::error_code ec;
+    if (std::filesystem::exists(file.string() + "-wal", ec) || std::filesystem::exists(file.string() + "-shm", ec))
+      continue;
+    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+      ::close(fd);
+      return file;
+    }
+    if (errno == EEXIST) continue;
+    const int err = errno;
+    throw StorageError(err == ENOENT ? StorageErrorKind::NotFound
+                       : (err == EACCES || err == EPERM || err == EROFS) ? StorageErrorKind::ReadOnly
+                                                                          : StorageErrorKind::Io,
+                       file, std::string("bench: cannot create a scratch database: ") + std::strerror(err));
+  }
+  throw StorageError(StorageErrorKind::Io, directory, "bench: no free scratch file name alc-bench-<pid>-<n>.sqlite");
+}
+
+// Writes a synthetic run (a sample and a prediction per step) into a new scratch file, removes
+// the file, and returns the elapsed seconds.
+double write_run(const std::filesystem::path& directory, const BenchOptions& options, std::size_t batch_size,
+                 std::vector<std::filesystem::path>& files) {
+  const auto file = claim_scratch_file(directory, files.size());  // a name of its own per mode
+  files.push_back(file);
+  struct Remove {  // also when the writer throws (disk full): only the files this run created
+    std::filesystem::path file;
+    ~Remove() {
+      std::error_code ec;
+      for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(file.string() + suffix, ec);
+    }
+  } remove{file};
   const auto start = std::chrono::steady_clock::now();
   {
     HistoryWriter writer(file, WriterOptions{.batch_size = batch_size});
@@ -38,7 +78,6 @@ double write_run(const std::filesystem::path& file, const BenchOptions& options,
     writer.end_run(id, RunStatus::Finished);
   }
   const auto stop = std::chrono::steady_clock::now();
-  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(file.string() + suffix);
   return std::chrono::duration<double>(stop - start).count();
 }
 
@@ -49,9 +88,8 @@ BenchResult bench_history(const std::filesystem::path& directory, const BenchOpt
     throw StorageError(StorageErrorKind::InvalidArgument, directory, "bench: samples, inputs and batch size must be positive");
   BenchResult result;
   result.records = 2 * options.samples;
-  const auto file = directory / "alc-bench-history.sqlite";
-  const double batched = write_run(file, options, options.batch_size);
-  const double unbatched = write_run(file, options, 1);
+  const double batched = write_run(directory, options, options.batch_size, result.scratch_files);
+  const double unbatched = write_run(directory, options, 1, result.scratch_files);
   result.batched_records_per_s = static_cast<double>(result.records) / batched;
   result.unbatched_records_per_s = static_cast<double>(result.records) / unbatched;
   return result;

@@ -37,21 +37,33 @@ CheckReport check_history(const std::filesystem::path& path) {
   auto db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, version);
   db->exec("PRAGMA query_only = ON");
 
-  {
+  // SQLite's own checks first. On a damaged file a later check can stop on an unreadable page
+  // (SQLITE_CORRUPT): what was found so far is kept and the failure is reported as a problem.
+  try {
     Statement st(*db, "PRAGMA integrity_check(50)");
     while (st.step()) {
       const std::string row = st.column_text(0);
       if (row != "ok") report.problems.push_back("integrity_check: " + row);
     }
+  } catch (const StorageError& e) {
+    if (e.kind != StorageErrorKind::Corrupt && e.kind != StorageErrorKind::NotADatabase) throw;
+    report.problems.push_back("integrity_check stopped: " + e.reason);
   }
-  {
+  // Damaged pages: the foreign-key and project checks would read the same pages and stop on them.
+  if (!report.ok()) {
+    report.problems.push_back("damaged pages: foreign-key and consistency checks skipped");
+    return report;
+  }
+  try {
     Statement st(*db, "PRAGMA foreign_key_check");
     int n = 0;
     while (st.step() && ++n <= kMaxReported)
       report.problems.push_back("foreign key: table " + st.column_text(0) + " row " + st.column_text(1) +
                                 " refers to a missing row of " + st.column_text(2));
+  } catch (const StorageError& e) {
+    if (e.kind != StorageErrorKind::Corrupt && e.kind != StorageErrorKind::NotADatabase) throw;
+    report.problems.push_back("foreign_key_check stopped: " + e.reason);
   }
-  // If SQLite already sees damage, the project checks below could fail on unreadable pages.
   if (!report.ok()) return report;
 
   {

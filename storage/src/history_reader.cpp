@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "record_io.hpp"
 #include "sqlite_db.hpp"
@@ -172,8 +173,12 @@ TimeSpan HistoryReader::time_span(RunId run) const {
   TimeSpan span;
   for (const char* table : kTimedTables) {
     if (!impl_->db->table_exists(table)) continue;
-    Statement st(*impl_->db, std::string("SELECT MIN(time_s), MAX(time_s) FROM ") + table + " WHERE run_id = ?1");
+    // The snapshot taken before the first sample carries a sentinel time, not a time of the run.
+    const bool snapshots = std::string_view(table) == "controller_snapshots";
+    Statement st(*impl_->db, std::string("SELECT MIN(time_s), MAX(time_s) FROM ") + table + " WHERE run_id = ?1" +
+                                 (snapshots ? " AND time_s != ?2" : ""));
     st.bind(1, run);
+    if (snapshots) st.bind(2, kSnapshotBeforeStart_s);
     if (st.step() && !st.is_null(0)) {
       span.first_s = span.empty ? st.column_double(0) : std::min(span.first_s, st.column_double(0));
       span.last_s = span.empty ? st.column_double(1) : std::max(span.last_s, st.column_double(1));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -48,6 +49,74 @@ StorageErrorKind kind_of_errno(int err, StorageErrorKind fallback) {
     case ENOENT: return StorageErrorKind::NotFound;
     default: return fallback;
   }
+}
+
+fs::path parent_of(const fs::path& file) { return file.parent_path().empty() ? fs::path(".") : file.parent_path(); }
+
+// A path as an SQLite URI ("file:" + the path, percent-encoded except unreserved characters and '/').
+std::string file_uri(const fs::path& file, const char* query) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string uri = "file:";
+  for (const char c : file.string()) {
+    const auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) || c == '/' || c == '-' || c == '.' || c == '_' || c == '~') {
+      uri += c;
+    } else {
+      uri += '%';
+      uri += kHex[u >> 4];
+      uri += kHex[u & 0xf];
+    }
+  }
+  return uri + "?" + query;
+}
+
+// Tables that migration_sql(1..version) create (read from the released DDL, so never out of date).
+std::vector<std::string> tables_of_version(int version) {
+  std::vector<std::string> tables;
+  static constexpr std::string_view kCreate = "CREATE TABLE ";
+  for (int v = 1; v <= version; ++v) {
+    const std::string_view sql = migration_sql(v);
+    for (auto at = sql.find(kCreate); at != std::string_view::npos; at = sql.find(kCreate, at + 1)) {
+      const auto start = at + kCreate.size();
+      const auto end = sql.find_first_of(" (\n", start);
+      tables.emplace_back(sql.substr(start, end - start));
+    }
+  }
+  return tables;
+}
+
+// An ALC file must hold every table of its schema version as a real table (not a view), or it was
+// not written by ALC and nothing may be done to it.
+void require_tables(Database& db, const fs::path& file, int version) {
+  std::string missing;
+  for (const std::string& table : tables_of_version(version))
+    if (!db.table_exists(table)) missing += (missing.empty() ? "" : ", ") + table;
+  if (!missing.empty())
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "ALC's application_id and schema version " + std::to_string(version) +
+                           ", but the table(s) " + missing + " are missing; left untouched");
+}
+
+// PRAGMA quick_check (page and B-tree structure, no index cross-check): a writer must not append to
+// a damaged file, where the damage would spread and committed records could be lost.
+void require_sound_pages(Database& db, const fs::path& file) {
+  std::string problems;
+  int shown = 0;
+  try {
+    Statement st(db, "PRAGMA quick_check(5)");
+    while (st.step()) {
+      const std::string row = st.column_text(0);
+      if (row == "ok") continue;
+      problems += (shown++ ? "; " : "") + row;
+    }
+  } catch (const StorageError& e) {
+    if (e.kind != StorageErrorKind::Corrupt && e.kind != StorageErrorKind::NotADatabase) throw;
+    problems += (shown++ ? "; " : "") + e.reason;
+  }
+  if (!problems.empty())
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "the file is corrupted (PRAGMA quick_check: " + problems +
+                           "); left untouched, not written to; 'alc db check' lists the damage");
 }
 
 }  // namespace
@@ -275,8 +344,19 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
     throw StorageError(StorageErrorKind::NotFound, file, "no such file");
   if (facts.empty && !write)
     throw StorageError(StorageErrorKind::NotADatabase, file, "an empty file, not an ALC history");
+  const fs::path parent = parent_of(file);
+  // A reader in a directory it cannot write to: WAL needs FILE-shm beside the file, which cannot be
+  // created, and SQLite would fail with "attempt to write a readonly database". With no FILE-wal
+  // (no writer is running, and none can start there) the file alone is the whole database: open it
+  // immutable (no locks, no -shm). With a FILE-wal present the normal open is tried and SQLite's
+  // answer is reported (the WAL may hold committed records the file lacks).
+  bool immutable = false, wal_in_readonly_dir = false;
+  if (!write && ::access(parent.c_str(), W_OK) != 0) {
+    std::error_code ec;
+    immutable = !fs::exists(fs::path(file.string() + "-wal"), ec);
+    wal_in_readonly_dir = !immutable;
+  }
   if (!facts.exists) {
-    const fs::path parent = file.parent_path().empty() ? fs::path(".") : file.parent_path();
     std::error_code ec;
     if (!fs::exists(parent, ec)) {
       if (!options.create_directories)
@@ -290,7 +370,6 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
                          "cannot create the database: directory '" + parent.string() + "' is not writable");
   } else if (write) {
     // WAL needs FILE-wal and FILE-shm beside the file.
-    const fs::path parent = file.parent_path().empty() ? fs::path(".") : file.parent_path();
     if (::access(parent.c_str(), W_OK) != 0)
       throw StorageError(StorageErrorKind::ReadOnly, file,
                          "directory '" + parent.string() + "' is not writable (the WAL journal lives beside the file)");
@@ -301,13 +380,33 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;
   flags |= write ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY;
   if (write && !facts.exists) flags |= SQLITE_OPEN_CREATE;  // never create over an existing file
+  if (immutable) flags |= SQLITE_OPEN_URI;
+  const std::string name = immutable ? file_uri(file, "mode=ro&immutable=1") : file.string();
   sqlite3* handle = nullptr;
-  const int rc = sqlite3_open_v2(file.c_str(), &handle, flags, nullptr);
+  const int rc = sqlite3_open_v2(name.c_str(), &handle, flags, nullptr);
   auto db = std::make_unique<Database>(handle, file, options.busy_timeout_ms);
   if (rc != SQLITE_OK) db->fail(rc, "opening");
   sqlite3_extended_result_codes(handle, 1);
   sqlite3_busy_timeout(handle, options.busy_timeout_ms);
+  // The file may be hostile: SQL functions and virtual tables with side effects must not run from
+  // its schema (triggers, views, CHECK constraints, DEFAULTs, indexes, generated columns).
+  int trusted = 1;
+  const int trc = sqlite3_db_config(handle, SQLITE_DBCONFIG_TRUSTED_SCHEMA, 0, &trusted);
+  if (trc != SQLITE_OK || trusted != 0) db->fail(trc != SQLITE_OK ? trc : SQLITE_ERROR, "setting trusted_schema = OFF");
 
+  if (wal_in_readonly_dir) {
+    try {
+      db->query_int("PRAGMA schema_version");  // the first read: opens the WAL and its -shm
+    } catch (const StorageError& e) {
+      if (e.kind != StorageErrorKind::ReadOnly && e.kind != StorageErrorKind::NotFound && e.kind != StorageErrorKind::Io)
+        throw;  // corrupt, locked, …: SQLite's own answer
+      throw StorageError(StorageErrorKind::ReadOnly, file,
+                         "directory '" + parent.string() + "' is not writable and '" + file.filename().string() +
+                             "-wal' lies beside the file (a writer is running or was killed): reading the WAL needs "
+                             "a '-shm' file SQLite cannot create there; copy the file with its -wal to a writable "
+                             "directory (" + e.reason + ")");
+    }
+  }
   // Authoritative checks through SQLite (the header may be stale while a WAL holds changes).
   const auto application_id = static_cast<std::int32_t>(db->query_int("PRAGMA application_id"));
   const auto version = static_cast<int>(db->query_int("PRAGMA user_version"));
@@ -321,12 +420,16 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
                          "an SQLite database of another program (no ALC application_id; holds " + names +
                              "); left untouched");
     if (!write) throw StorageError(StorageErrorKind::NotADatabase, file, "an empty SQLite database, not an ALC history");
+    if (facts.exists && !facts.empty) require_sound_pages(*db, file);
     version_found = 0;
     return db;
   }
   if (version > kSchemaVersion) refuse_newer(file, version);
   if (version < 1)
     throw StorageError(StorageErrorKind::Corrupt, file, "ALC's application_id but no schema version");
+  require_tables(*db, file, version);
+  // A writer checks the pages before it changes anything (journal mode, migration, records).
+  if (write) require_sound_pages(*db, file);
   version_found = version;
   return db;
 }

@@ -4,6 +4,7 @@
 #include <array>
 #include <catch2/catch.hpp>
 #include <cstdio>
+#include <filesystem>
 
 #include "storage/history_writer.hpp"
 #include "storage_test_support.hpp"
@@ -99,4 +100,42 @@ TEST_CASE("alc db commands name the file and the cause for a file that is not a 
   const Outcome missing = run_alc("db info " + quoted(dir / "missing.sqlite"));
   CHECK(missing.exit_code == 1);
   CHECK_THAT(missing.output, Catch::Contains("no such file"));
+}
+
+TEST_CASE("alc db export refuses to write its CSV over the database or its journal", "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "history.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    writer.add(test::sample_at(id, 0));
+  }
+  const std::string before = test::read_bytes(file);
+  std::filesystem::create_symlink(file, dir / "link.sqlite");
+  for (const auto& out : {file, dir.path / "." / "history.sqlite", dir / "link.sqlite",
+                          std::filesystem::path(file.string() + "-wal")}) {
+    INFO(out.string());
+    const Outcome outcome = run_alc("db export " + quoted(file) + " --table runs --out " + quoted(out));
+    CHECK(outcome.exit_code == 2);
+    CHECK_THAT(outcome.output, Catch::Contains("is the history database") && Catch::Contains("choose another --out"));
+    CHECK(test::read_bytes(file) == before);
+    CHECK_FALSE(std::filesystem::exists(file.string() + "-wal"));
+  }
+  CHECK(run_alc("db check " + quoted(file)).exit_code == 0);
+}
+
+TEST_CASE("alc db bench --dir never touches an existing file there", "[storage][cli]") {
+  ScratchDir dir;
+  // The name the bench used to delete and reuse.
+  const auto precious = dir / "alc-bench-history.sqlite";
+  test::write_bytes(precious, "someone's data");
+  const Outcome bench = run_alc("db bench --samples 50 --inputs 2 --batch 10 --dir " + quoted(dir.path));
+  INFO(bench.output);
+  CHECK(bench.exit_code == 0);
+  CHECK_THAT(bench.output, Catch::Contains("records per mode: 100") && Catch::Contains("scratch databases") &&
+                               Catch::Contains("alc-bench-"));
+  CHECK(test::read_bytes(precious) == "someone's data");
+  std::size_t left = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path)) left += entry.path() != precious;
+  CHECK(left == 0);  // its own scratch files are removed
 }

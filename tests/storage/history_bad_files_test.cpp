@@ -4,7 +4,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <catch2/catch.hpp>
+#include <cstdio>
+#include <sstream>
 
 #include "storage/history_reader.hpp"
 #include "storage/history_tools.hpp"
@@ -59,6 +62,32 @@ std::filesystem::path filled_history(const ScratchDir& dir, const std::string& n
   for (int k = 0; k < samples; ++k) writer.add(test::sample_at(id, k));
   writer.end_run(id, RunStatus::Finished);
   return file;  // closed: WAL checkpointed into the file and removed
+}
+
+// Overwrites one leaf page of input_samples that is not on the path of an append (the leftmost
+// child of the table's root page) with garbage; returns its page number. The header page and the
+// schema stay intact, so the damage is found only by reading that page.
+std::uint32_t damage_a_leaf_page(const std::filesystem::path& file) {
+  long long root = 0;
+  {
+    RawDb raw(file);
+    root = raw.scalar("SELECT rootpage FROM sqlite_schema WHERE name = 'input_samples'");
+  }
+  std::string bytes = test::read_bytes(file);
+  const auto u8 = [&](std::size_t at) { return static_cast<unsigned char>(bytes.at(at)); };
+  std::size_t page_size = (std::size_t{u8(16)} << 8) | u8(17);
+  if (page_size == 1) page_size = 65536;
+  REQUIRE(root > 1);
+  const std::size_t page = static_cast<std::size_t>(root - 1) * page_size;
+  REQUIRE((u8(page) == 0x02 || u8(page) == 0x05));  // an interior page: the table spans several leaves
+  const std::size_t cell = (std::size_t{u8(page + 12)} << 8) | u8(page + 13);  // first cell pointer
+  const std::uint32_t leaf = (std::uint32_t{u8(page + cell)} << 24) | (std::uint32_t{u8(page + cell + 1)} << 16) |
+                             (std::uint32_t{u8(page + cell + 2)} << 8) | u8(page + cell + 3);
+  REQUIRE(leaf > 1);
+  REQUIRE(std::size_t{leaf} * page_size <= bytes.size());
+  std::fill_n(bytes.begin() + static_cast<std::ptrdiff_t>((leaf - 1) * page_size), page_size, '\xA5');
+  test::write_bytes(file, bytes);
+  return leaf;
 }
 
 }  // namespace
@@ -133,6 +162,80 @@ TEST_CASE("a truncated or corrupted file is refused or reported", "[storage]") {
   }
 }
 
+TEST_CASE("a writer refuses a file with a damaged page before it changes anything", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "damaged.sqlite", 3000);
+  const std::uint32_t leaf = damage_a_leaf_page(file);
+  INFO("damaged page " << leaf);
+  const std::string before = test::read_bytes(file);
+  const StorageError e = error_of([&] {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    writer.add(test::sample_at(id, 0));
+    writer.commit();
+  });
+  INFO(e.what());
+  CHECK(e.kind == StorageErrorKind::Corrupt);
+  CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains("quick_check"));
+  check_untouched(file, before);
+}
+
+TEST_CASE("alc db check reports the integrity problems of a damaged page", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "damaged.sqlite", 3000);
+  damage_a_leaf_page(file);
+  const std::string before = test::read_bytes(file);
+  const CheckReport report = check_history(file);  // does not throw: the damage is the report
+  CHECK_FALSE(report.ok());
+  const auto integrity = std::count_if(report.problems.begin(), report.problems.end(), [](const std::string& p) {
+    return p.rfind("integrity_check: ", 0) == 0;
+  });
+  CHECK(integrity > 0);
+  CHECK(test::read_bytes(file) == before);  // a reader leaves SQLite's empty -wal/-shm of a WAL file
+}
+
+TEST_CASE("a file with ALC's application_id but without ALC's tables is refused untouched", "[storage]") {
+  ScratchDir dir;
+  SECTION("no tables") {
+    const auto file = dir / "ids-only.sqlite";
+    {
+      RawDb raw(file);
+      raw.exec("PRAGMA application_id = " + std::to_string(kApplicationId) + "; PRAGMA user_version = 2;");
+    }
+    check_refused(file, StorageErrorKind::Corrupt, "the table(s) runs, run_channels");
+  }
+  SECTION("a view where a table belongs, and a version-2 table missing") {
+    const auto file = dir / "impostor.sqlite";
+    {
+      RawDb raw(file);
+      REQUIRE(raw.exec(std::string(migration_sql(1))) == SQLITE_OK);
+      REQUIRE(raw.exec("DROP TABLE runs; CREATE VIEW runs AS SELECT 1 AS run_id;"
+                       "PRAGMA application_id = " + std::to_string(kApplicationId) + "; PRAGMA user_version = 2;") ==
+              SQLITE_OK);
+    }
+    check_refused(file, StorageErrorKind::Corrupt, "the table(s) runs, nc_commands are missing");
+  }
+}
+
+TEST_CASE("the schema of a hostile file cannot run unsafe SQL (trusted_schema off)", "[storage]") {
+  ScratchDir dir;
+  const auto file = filled_history(dir, "hostile.sqlite", 5);
+  {
+    // A trigger that reads a virtual table (pragma_table_list: not innocuous) on the writer's insert.
+    RawDb raw(file);
+    REQUIRE(raw.exec("CREATE TABLE spy (name TEXT); CREATE TRIGGER spy_on_runs AFTER INSERT ON runs "
+                     "BEGIN INSERT INTO spy SELECT name FROM pragma_table_list; END;") == SQLITE_OK);
+  }
+  const StorageError e = error_of([&] {
+    HistoryWriter writer(file);
+    writer.begin_run(test::small_run());
+  });
+  INFO(e.what());
+  CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains("unsafe use of virtual table"));
+  CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM spy") == 0);
+  CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM runs") == 1);
+}
+
 TEST_CASE("a locked database gives a locked error after the busy timeout", "[storage]") {
   ScratchDir dir;
   const auto file = filled_history(dir, "locked.sqlite", 5);
@@ -185,6 +288,64 @@ TEST_CASE("a read-only directory or file gives a read-only error", "[storage]") 
   CHECK(WEXITSTATUS(status) == 0);
   CHECK_FALSE(std::filesystem::exists(locked_dir / "new.sqlite"));
   CHECK(test::read_bytes(existing) == before);
+}
+
+TEST_CASE("a reader opens a history in a directory it cannot write to (immutable, no -shm)", "[storage]") {
+  ScratchDir dir;
+  const auto locked_dir = dir.path / "ro";
+  std::filesystem::create_directories(locked_dir);
+  const auto existing = filled_history(dir, "ro/existing.sqlite", 5);
+  // A -wal beside the file (a writer running or killed): immutable would miss its records.
+  const auto with_wal = filled_history(dir, "ro/with-wal.sqlite", 5);
+  test::write_bytes(with_wal.string() + "-wal", "");
+  std::filesystem::permissions(locked_dir, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec |
+                                               std::filesystem::perms::group_read | std::filesystem::perms::group_exec |
+                                               std::filesystem::perms::others_read | std::filesystem::perms::others_exec);
+  const std::string before = test::read_bytes(existing);
+  // Root ignores permissions: read as `nobody` in a child process (what info, check, export do).
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    if (geteuid() == 0 && (setgid(65534) != 0 || setuid(65534) != 0)) _exit(10);
+    if (::access(locked_dir.c_str(), W_OK) == 0) _exit(11);  // the directory must really be read-only here
+    int code = 0;
+    try {
+      const HistoryReader reader(existing);
+      if (reader.runs().size() != 1 || reader.input_samples(1).size() != 5) code |= 1;
+    } catch (const StorageError& e) {
+      std::fprintf(stderr, "reader: %s\n", e.what());
+      code |= 2;
+    }
+    try {
+      if (!check_history(existing).ok()) code |= 4;
+    } catch (const StorageError& e) {
+      std::fprintf(stderr, "check: %s\n", e.what());
+      code |= 8;
+    }
+    try {
+      std::ostringstream csv;
+      export_table_csv(existing, "input_samples", csv);
+      if (csv.str().rfind("run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,", 0) != 0) code |= 16;
+    } catch (const StorageError& e) {
+      std::fprintf(stderr, "export: %s\n", e.what());
+      code |= 32;
+    }
+    try {
+      const HistoryReader reader(with_wal);
+      code |= 64;
+    } catch (const StorageError& e) {
+      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("-wal' lies beside") == std::string::npos) {
+        std::fprintf(stderr, "with -wal: %s\n", e.what());
+        code |= 128;
+      }
+    }
+    _exit(code);
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  check_untouched(existing, before);
 }
 
 TEST_CASE("a full disk stops the writer with a disk-full error and keeps what was committed", "[storage]") {

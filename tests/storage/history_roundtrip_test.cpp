@@ -305,3 +305,24 @@ TEST_CASE("export writes CSV with one column per channel and quotes text", "[sto
     CHECK_NOTHROW(export_table_csv(file, table, out));
   }
 }
+
+TEST_CASE("the time span ignores the snapshot taken before the first sample", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "span.sqlite";
+  RunId id = 0;
+  {
+    HistoryWriter writer(file);
+    id = writer.begin_run(test::small_run());
+    // What replay saves at the start of a run, before the controller has seen a sample.
+    writer.save_snapshot({id, kSnapshotBeforeStart_s, 0, "test/1", true, "{}"});
+    for (std::int64_t k = 0; k <= 60; ++k) writer.add(test::sample_at(id, k));
+    writer.add(PredictionRecord{id, 30.0, {0.5, -0.5}, {1.0, 2.0}});
+  }
+  const HistoryReader reader(file);
+  const TimeSpan span = reader.time_span(id);
+  REQUIRE_FALSE(span.empty);
+  CHECK(span.first_s == 0.0);
+  CHECK(span.last_s == 3600.0);
+  // The snapshot itself is kept as written: only the span leaves it out.
+  CHECK(reader.latest_snapshot(id)->time_s == kSnapshotBeforeStart_s);
+}

@@ -17,15 +17,17 @@ struct TableCount {
 };
 
 struct TimeSpan {
-  double first_s = 0.0;   // [s] earliest time_s over every table of the run
+  double first_s = 0.0;   // [s] earliest time_s over every table of the run (not kSnapshotBeforeStart_s)
   double last_s = 0.0;    // [s] latest
   bool empty = true;      // no timed record at all
 };
 
 class HistoryReader {
  public:
-  // Same refusals as HistoryWriter (not SQLite, foreign, newer, truncated); older ALC schema
-  // versions are read as they are (tables added later read as empty).
+  // Same refusals as HistoryWriter (not SQLite, foreign, newer, truncated, tables missing); older
+  // ALC schema versions are read as they are (tables added later read as empty). In a directory it
+  // cannot write to and with no FILE-wal beside the file, the file is opened immutable (read-only,
+  // no locks, no -shm), so a history on read-only media or in another user's directory reads.
   explicit HistoryReader(const std::filesystem::path& path);
   ~HistoryReader();
   HistoryReader(HistoryReader&&) noexcept;

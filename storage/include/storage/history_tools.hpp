@@ -39,10 +39,12 @@ struct BenchResult {
   std::int64_t records = 0;              // records per mode (samples + predictions)
   double batched_records_per_s = 0.0;    // [1/s]
   double unbatched_records_per_s = 0.0;  // [1/s] one transaction per record
+  std::vector<std::filesystem::path> scratch_files;  // the new files written (and removed), one per mode
   double ratio() const { return unbatched_records_per_s > 0 ? batched_records_per_s / unbatched_records_per_s : 0.0; }
 };
 
-// Writes the same synthetic run twice into fresh files in `directory` (removed afterwards).
+// Writes the same synthetic run twice, each time into a new file alc-bench-<pid>-<n>.sqlite that it
+// creates in `directory` (never an existing file) and removes afterwards.
 BenchResult bench_history(const std::filesystem::path& directory, const BenchOptions& options);
 
 }  // namespace alc::storage

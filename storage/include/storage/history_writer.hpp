@@ -48,7 +48,9 @@ class HistoryWriter {
  public:
   // Opens `path`, creating an empty ALC database if the file does not exist (or is empty).
   // Refuses, with StorageError naming the file and cause, and without modifying the file: a file
-  // that is not SQLite, an SQLite file of another program, a newer schema, a truncated file.
+  // that is not SQLite, an SQLite file of another program, a newer schema, a truncated file, an
+  // ALC file that lacks the tables of its schema version, a file with damaged pages (PRAGMA
+  // quick_check, run on every existing non-empty file before anything is written: Corrupt).
   // An older ALC schema is migrated forward in one transaction.
   explicit HistoryWriter(const std::filesystem::path& path, WriterOptions options = {});
   ~HistoryWriter();  // commits what is pending; errors are swallowed (call close() to see them)

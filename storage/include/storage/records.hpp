@@ -102,6 +102,10 @@ struct NcCommandRecord {
   std::string message;                      // the sink's error when not accepted
 };
 
+// time_s of a snapshot taken before the controller saw its first sample (replay saves one at the
+// start of a run). Not a time of the run: HistoryReader::time_span and `alc db info` ignore it.
+inline constexpr double kSnapshotBeforeStart_s = -1.0;
+
 // The controller's state, opaque to storage and stored bit for bit. A resumed run restores the
 // latest snapshot and continues with sample `next_sample_index`.
 struct ControllerSnapshot {
