@@ -25,6 +25,26 @@ TEST_CASE("load cases A-D: linear P99 below 5 µm, Pd at least 95.5 %, and the A
   }
 }
 
+// Other seeds of the same cases (other weather, production, noise and chips on the sphere): one
+// test per seed so that ctest runs them in parallel. Seeds 5 and 6 broke the limit (8 and 16 µm)
+// until a breach had to be confirmed by the first NG probe (a chip at a Post-CP probe was learned).
+static void check_seed(std::uint64_t seed) {
+  for (const auto& info : load_cases()) {
+    const auto simulated = simulate_case(info.name, seed);
+    const ReplayReport r = replay(simulated.scenario, AlcParameters{});
+    INFO("case " << info.name << " seed " << seed << ": linear P99 " << r.mean_p99(ErrorKind::Linear) << " µm");
+    CHECK(r.mean_p99(ErrorKind::Linear) < 5.0);
+    CHECK(r.Pd >= 95.5);
+    CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, true));
+  }
+}
+TEST_CASE("load cases A-D with seed 1: linear P99 below 5 µm") { check_seed(1); }
+TEST_CASE("load cases A-D with seed 2: linear P99 below 5 µm") { check_seed(2); }
+TEST_CASE("load cases A-D with seed 3: linear P99 below 5 µm") { check_seed(3); }
+TEST_CASE("load cases A-D with seed 4: linear P99 below 5 µm") { check_seed(4); }
+TEST_CASE("load cases A-D with seed 5: linear P99 below 5 µm") { check_seed(5); }
+TEST_CASE("load cases A-D with seed 6: linear P99 below 5 µm") { check_seed(6); }
+
 TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay; compensation helps every output") {
   const auto simulated = simulate_case("S16");
   REQUIRE(simulated.scenario.input_names.size() == 17);
