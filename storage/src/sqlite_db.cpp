@@ -95,6 +95,14 @@ void require_tables(Database& db, const fs::path& file, int version) {
     throw StorageError(StorageErrorKind::Corrupt, file,
                        "ALC's application_id and schema version " + std::to_string(version) +
                            ", but the table(s) " + missing + " are missing; left untouched");
+  // ALC's schema has no triggers and no views: one in the file would run its own SQL on our writes.
+  Statement extra(db, "SELECT type, name FROM sqlite_schema WHERE type IN ('trigger', 'view') ORDER BY name LIMIT 5");
+  std::string found;
+  while (extra.step()) found += (found.empty() ? "" : ", ") + extra.column_text(0) + " '" + extra.column_text(1) + "'";
+  if (!found.empty())
+    throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                       "ALC's application_id, but the schema holds " + found +
+                           " that ALC never creates (they would run on every write); left untouched");
 }
 
 // PRAGMA quick_check (page and B-tree structure, no index cross-check): a writer must not append to
