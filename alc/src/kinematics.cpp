@@ -158,4 +158,33 @@ Compensation compensate(const MachineChain& chain, const AxisPositions& position
   return out;
 }
 
+int location_error_field(const std::string& output_name) {
+  static const char* const names[] = {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C"};
+  for (int f = 0; f < 7; ++f)
+    if (output_name == names[f]) return f;
+  return -1;
+}
+
+void set_location_error(LocationErrors& e, int field, double value) {
+  switch (field) {
+    case 0: e.x0c_um = value; break;
+    case 1: e.y0c_um = value; break;
+    case 2: e.z0t_um = value; break;
+    case 3: e.r0t_um = value; break;
+    case 4: e.a0c_um_per_m = value; break;
+    case 5: e.b0c_um_per_m = value; break;
+    case 6: e.c0c_um_per_m = value; break;
+    default: break;
+  }
+}
+
+LocationErrors location_errors_of(const std::vector<std::string>& names, const Eigen::VectorXd& values) {
+  LocationErrors e;
+  for (std::size_t k = 0; k < names.size() && static_cast<Eigen::Index>(k) < values.size(); ++k) {
+    const double v = values(static_cast<Eigen::Index>(k));
+    if (std::isfinite(v)) set_location_error(e, location_error_field(names[k]), v);
+  }
+  return e;
+}
+
 }  // namespace alc::kinematics

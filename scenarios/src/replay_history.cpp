@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include "storage/model_json.hpp"
@@ -259,8 +260,29 @@ void HistoryRecorder::record_events(const ControllerOutput& out, double time_s) 
 void HistoryRecorder::on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs,
                                 const ControllerOutput& out) {
   writer_.add(storage::InputSampleRecord{run_, static_cast<std::int64_t>(row), time_s, to_std(inputs)});
-  writer_.add(storage::PredictionRecord{run_, time_s, to_std(out.prediction), {}});
+  std::vector<double> offsets;
+  if (chain_) {
+    const auto errors = kinematics::location_errors_of(output_names_, out.prediction);
+    const kinematics::Compensation c = kinematics::compensate(*chain_, {}, errors);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    offsets = c.converged ? std::vector<double>{c.offsets.x_um, c.offsets.y_um, c.offsets.z_um, c.offsets.tilt_urad,
+                                                c.offsets.table_urad}
+                          : std::vector<double>(5, nan);  // no converged compensation: stated, not guessed
+  }
+  writer_.add(storage::PredictionRecord{run_, time_s, to_std(out.prediction), std::move(offsets)});
   record_events(out, time_s);
+}
+
+void HistoryRecorder::record_offsets(const kinematics::MachineChain& chain, std::vector<std::string> output_names) {
+  bool maps = false;
+  for (const auto& name : output_names) maps = maps || kinematics::location_error_field(name) >= 0;
+  if (!maps) return;
+  chain_ = chain;
+  output_names_ = std::move(output_names);
+}
+
+std::vector<std::string> HistoryRecorder::offset_names(const kinematics::MachineChain& chain) {
+  return {"X_um", "Y_um", "Z_um", std::string(1, chain.tilt.name) + "_urad", std::string(1, chain.table.name) + "_urad"};
 }
 
 void HistoryRecorder::on_probe(std::size_t, const ProbeMeasurement& probe, const ControllerOutput& out) {

@@ -22,6 +22,7 @@
 // Pure math: no files, no I/O. Reading a machine config lives in nc_interface/.
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 namespace alc::kinematics {
 
@@ -97,5 +98,14 @@ struct Compensation {
 // completely, rotation in the least-squares sense; the rotation left over is reported.
 // Solved by Gauss-Newton on the exact forward chain (the problem is 6 equations, 5 unknowns).
 Compensation compensate(const MachineChain& chain, const AxisPositions& positions, const LocationErrors& errors);
+
+// Which LocationErrors field an error output name is: 0..6 for E_X0C, E_Y0C, E_Z0T, E_R0T, E_A0C,
+// E_B0C, E_C0C (the order of the struct), -1 for any other name.
+int location_error_field(const std::string& output_name);
+// Sets field 0..6 (as location_error_field) to `value`; other fields are ignored.
+void set_location_error(LocationErrors& errors, int field, double value);
+// The location errors of a vector of outputs named `names` (fields without an output, and
+// non-finite values, stay zero).
+LocationErrors location_errors_of(const std::vector<std::string>& names, const Eigen::VectorXd& values);
 
 }  // namespace alc::kinematics

@@ -4,6 +4,10 @@
 #include <cstdint>
 #include <string>
 
+#include <optional>
+#include <vector>
+
+#include "alc/kinematics.hpp"
 #include "scenarios/replay.hpp"
 #include "storage/history_writer.hpp"
 
@@ -23,6 +27,12 @@ class HistoryRecorder : public ReplayObserver {
                   double snapshot_every_s = 24 * 3600.0);
   void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const ControllerOutput& out) override;
   void on_probe(std::size_t row, const ProbeMeasurement& probe, const ControllerOutput& out) override;
+  // Also record, with every prediction, the axis offsets that cancel it (kinematics::compensate at
+  // the reference pose, tilt = table = 0), in the order of offset_names(chain). Only when some output
+  // is one of the seven C-axis errors; the run's RunRecord::offset_names must be offset_names(chain).
+  void record_offsets(const kinematics::MachineChain& chain, std::vector<std::string> output_names);
+  // "X_um", "Y_um", "Z_um", "<tilt>_urad", "C_urad": the offset channels of record_offsets().
+  static std::vector<std::string> offset_names(const kinematics::MachineChain& chain);
   // Saves a snapshot when one is due.
   void on_row_done(const ReplaySession& session) override;
   // Stores the session's state as a snapshot (commits everything before it).
@@ -35,6 +45,8 @@ class HistoryRecorder : public ReplayObserver {
   const Controller& controller_;
   double snapshot_every_s_;
   double next_snapshot_s_ = -kInf;
+  std::optional<kinematics::MachineChain> chain_;   // set by record_offsets()
+  std::vector<std::string> output_names_;
 };
 
 }  // namespace alc::scenarios
