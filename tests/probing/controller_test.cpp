@@ -114,7 +114,7 @@ TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
   CHECK_THAT(out.prediction[1], Catch::Matchers::WithinAbs(d.plant.errors()[1], kLearnedTolerance));
 }
 
-TEST_CASE("controller: an ACL breach starts NG; after N probes the model is updated and Post-CP resumes") {
+TEST_CASE("controller: an ACL breach starts NG, after N probes the model is updated and Post-CP resumes") {
   Driver d(test_parameters());
   d.run_until(3 * kHour - kMinute);
   d.plant.offset_x = 12.0;  // a step the model cannot know: residual 12 µm > 5 µm

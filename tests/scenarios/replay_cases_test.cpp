@@ -45,7 +45,7 @@ TEST_CASE("load cases A-D with seed 4: linear P99 below 5 µm") { check_seed(4);
 TEST_CASE("load cases A-D with seed 5: linear P99 below 5 µm") { check_seed(5); }
 TEST_CASE("load cases A-D with seed 6: linear P99 below 5 µm") { check_seed(6); }
 
-TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay; compensation helps every output") {
+TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay and compensation helps every output") {
   const auto simulated = simulate_case("S16");
   REQUIRE(simulated.scenario.input_names.size() == 17);
   REQUIRE(simulated.scenario.output_names.size() == 5);

@@ -103,7 +103,7 @@ TEST_CASE("replay: evaluation uses every recorded measurement after CP, and Pd f
   CHECK(res.time_s.front() == 3 * kHour);
 }
 
-TEST_CASE("replay: a step the model cannot know triggers NG and an update; the ALC beats the static baseline") {
+TEST_CASE("replay: a step the model cannot know triggers NG and an update, and the ALC beats the static baseline") {
   const Scenario s = synthetic(5, 8.0, 10.0);
   const ReplayReport r = replay(s, parameters());
   CHECK(r.ng_phases >= 1);
