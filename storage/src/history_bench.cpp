@@ -71,7 +71,7 @@ double write_run(const std::filesystem::path& directory, const BenchOptions& opt
       sample.sample_index = k;
       sample.time_s = prediction.time_s = 60.0 * static_cast<double>(k);
       for (std::size_t i = 0; i < sample.values.size(); ++i) sample.values[i] = 20.0 + std::sin(0.001 * static_cast<double>(k + static_cast<std::int64_t>(i)));
-      for (std::size_t i = 0; i < prediction.predicted.size(); ++i) prediction.predicted[i] = 0.5 * sample.values[i];
+      for (std::size_t i = 0; i < prediction.predicted.size(); ++i) prediction.predicted[i] = 0.5 * sample.values[i % sample.values.size()];
       writer.add(sample);
       writer.add(prediction);
     }
