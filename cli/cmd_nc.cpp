@@ -3,6 +3,9 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <stdexcept>
+#include <variant>
+#include <vector>
 
 #include "commands.hpp"
 #include "nc_interface/dialects.hpp"
@@ -18,10 +21,34 @@ struct NcArgs {
   std::string dialect;
   std::string machine;
   std::string input;
+  std::string in_force;  // JSON lines of the offsets in force now, "" = zero offsets
   std::string sink = "stdout";
   std::string spool_dir;
   int port = 5007;
 };
+
+// The offsets in force now: axis_offsets lines, at most one per work offset. A work offset without a
+// line is taken as zero offsets.
+std::vector<nc::AxisOffsets> read_in_force(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError("--in-force: cannot open " + path);
+  std::vector<nc::NcCommand> lines;
+  try {
+    lines = nc::read_commands_jsonl(in, path);
+  } catch (const nc::JsonlError& e) {
+    throw UsageError(std::string("--in-force: ") + e.what());
+  }
+  std::vector<nc::AxisOffsets> out;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const auto* o = std::get_if<nc::AxisOffsets>(&lines[i]);
+    if (!o) throw UsageError("--in-force " + path + ": entry " + std::to_string(i + 1) + " is not an axis_offsets line");
+    for (const nc::AxisOffsets& seen : out)
+      if (seen.work_offset == o->work_offset)
+        throw UsageError("--in-force " + path + ": " + nc::work_offset_name(o->work_offset) + " is given twice");
+    out.push_back(*o);
+  }
+  return out;
+}
 
 void run_nc(const NcArgs& args) {
   const auto dialect = nc::parse_dialect(args.dialect);
@@ -49,8 +76,18 @@ void run_nc(const NcArgs& args) {
   } catch (const nc::JsonlError& e) {
     throw UsageError(e.what());
   }
-  // Safety first: nothing is written when any command is refused.
+  // Safety first: nothing is written when any command is refused. max_step is judged from the
+  // offsets in force (--in-force), else from zero offsets.
   nc::CommandRecorder recorder(config.limits);
+  if (!args.in_force.empty()) {
+    for (const nc::AxisOffsets& o : read_in_force(args.in_force)) {
+      try {
+        recorder.set_in_force(o);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError("--in-force " + args.in_force + ": " + e.what());
+      }
+    }
+  }
   std::size_t refused = 0;
   for (std::size_t i = 0; i < commands.size(); ++i) {
     const nc::SafetyDecision d = recorder.record(commands[i]);
@@ -92,10 +129,16 @@ void add_nc_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "nc", "Turn NC commands (JSON lines: axis_offsets, probe_interval) into NC code of one dialect.\n"
             "Reads stdin (or --in), checks the machine's safety limits, writes to stdout, a spool\n"
-            "directory, or a running LinuxCNC (linuxcncrsh, localhost only). See docs/nc.md.");
+            "directory, or a running LinuxCNC (linuxcncrsh, localhost only). max_step is judged against\n"
+            "the offsets in force given by --in-force; without it, the first command of each work offset\n"
+            "is judged against zero offsets. See docs/nc.md.");
   cmd->add_option("--dialect", args->dialect, "linuxcnc, fanuc, sinumerik or heidenhain")->required();
   cmd->add_option("--machine", args->machine, "machine config (TOML): kinematics, [nc], [limits]; see nc_interface/machine.example.toml");
   cmd->add_option("--in", args->input, "commands file (JSON lines); default stdin");
+  cmd->add_option("--in-force", args->in_force,
+                  "offsets in force now (JSON lines, one axis_offsets per work offset, same form as the commands); "
+                  "the safety gate judges max_step from them. Without it (or for a work offset not listed) the "
+                  "first command is judged against zero offsets");
   cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
       ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));
   cmd->add_option("--spool-dir", args->spool_dir, "directory for --sink spool");

@@ -236,6 +236,9 @@ void write_nc_output(const std::filesystem::path& dir, const std::string& source
             << " refused, " << s.split << " split, " << s.sent << " written (" << nc::dialect_name(nc_setup.dialect)
             << ")";
   if (!observer.maps_any_error()) std::cerr << "; no output named E_X0C … E_C0C, so no axis offsets";
+  else
+    std::cerr << "; largest non-compensable tilt " << observer.max_non_compensable_um_per_m()
+              << " µm/m (no axis to cancel it; per command in commands.jsonl)";
   if (observer.not_converged())
     std::cerr << "; " << observer.not_converged() << " moments without a converged compensation";
   std::cerr << "\n";

@@ -35,6 +35,7 @@ AxisOffsets to_axis_offsets(const kinematics::Compensation& compensation, const 
   }
   out.c_deg = compensation.offsets.table_urad * kDegPerUrad;
   out.work_offset = work_offset;
+  out.non_compensable_um_per_m = compensation.non_compensable_um_per_m;
   return out;
 }
 

@@ -69,6 +69,9 @@ void write_linuxcnc(std::ostream& s, const std::vector<NcCommand>& commands, con
 void write_fanuc(std::ostream& s, const std::vector<NcCommand>& commands, const DialectOptions& options) {
   s << "%\n";
   s << "O" << options.fanuc_program_number << " (ALC THERMAL COMPENSATION)\n";
+  // Metric input: G10 values are read in the active input unit, and ours are mm. Fanuc wants G20/G21
+  // in a block of its own at the start of the program, before any coordinate system is set.
+  s << "G21\n";
   for (const NcCommand& c : commands) {
     if (const auto* o = std::get_if<AxisOffsets>(&c)) {
       // G90: in G91 a G10 L2 would add to the work offset instead of setting it.
@@ -83,17 +86,25 @@ void write_fanuc(std::ostream& s, const std::vector<NcCommand>& commands, const 
   s << "M30\n%\n";
 }
 
+// The G code that selects settable frame $P_UIFR[n]: G54…G57 for n = 1…4, G505…G599 for n = 5…99.
+std::string sinumerik_frame_selection(int frame) {
+  std::string code = "G";  // (not "G" + …: GCC 12 -Wrestrict false positive)
+  code += std::to_string(frame <= 4 ? 53 + frame : 500 + frame);
+  return code;
+}
+
 void write_sinumerik(std::ostream& s, const std::vector<NcCommand>& commands, const DialectOptions& options) {
   s << "; ALC THERMAL COMPENSATION: FINE OFFSET OF SETTABLE FRAMES, PROBE INTERVAL R"
     << options.sinumerik_interval_r << " [MIN]\n";
   for (const NcCommand& c : commands) {
     if (const auto* o = std::get_if<AxisOffsets>(&c)) {
-      // $P_UIFR[1] is G54 … [6] is G59 (G505 ff. are not used); FI = fine offset, added to the
-      // operator's coarse offset TR, so the base stays untouched.
+      // Settable frame n = $P_UIFR[n]: work offsets 1…4 (G54…G57) are selected by G54…G57, 5 and 6
+      // (our G58, G59) by G505, G506: Sinumerik's G58/G59 are programmable axial offsets, not frames.
+      // FI = fine offset, added to the operator's coarse offset TR, so the base stays untouched.
       for (const AxisWord& w : axis_words(*o, nullptr))
         s << "$P_UIFR[" << o->work_offset << "," << w.letter << ",FI]=" << n(w.value) << "\n";
       // A changed settable frame becomes active only when it is selected again.
-      s << work_offset_name(o->work_offset) << "\n";
+      s << sinumerik_frame_selection(o->work_offset) << "\n";
     } else {
       s << "R" << options.sinumerik_interval_r << "=" << n(interval_value(std::get<ProbeInterval>(c))) << "\n";
     }
@@ -189,6 +200,8 @@ std::string validate(const NcCommand& command) {
       if (value && (!std::isfinite(*value) || std::abs(*value) > kMaxNcMagnitude))
         return std::string(name) + " must be finite and within ±1e6, got " + std::to_string(*value);
     if (!finite_or_empty(o->time_s)) return "time_s must be finite";
+    if (const auto& r = o->non_compensable_um_per_m; r && (!std::isfinite(*r) || *r < 0.0 || *r > kMaxNcMagnitude))
+      return "non_compensable_um_per_m must be >= 0, finite and within 1e6, got " + std::to_string(*r);
     return {};
   }
   const auto& p = std::get<ProbeInterval>(command);

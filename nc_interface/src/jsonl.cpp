@@ -100,6 +100,7 @@ NcCommand parse_command_json(const std::string& line_text, const std::string& so
     const auto index = parse_work_offset(wo);
     if (!index) r.fail("work_offset", "must be one of G54 … G59");
     o.work_offset = *index;
+    o.non_compensable_um_per_m = r.number("non_compensable_um_per_m", false);
     o.time_s = r.number("time_s", false);
     command = o;
   } else if (type == "probe_interval") {
@@ -141,6 +142,7 @@ std::string to_json_line(const NcCommand& command) {
     if (o->b_deg) j["b_deg"] = *o->b_deg;
     j["c_deg"] = o->c_deg;
     j["work_offset"] = work_offset_name(o->work_offset);
+    if (o->non_compensable_um_per_m) j["non_compensable_um_per_m"] = *o->non_compensable_um_per_m;
     if (o->time_s) j["time_s"] = *o->time_s;
   } else {
     const auto& p = std::get<ProbeInterval>(command);

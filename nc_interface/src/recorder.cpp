@@ -1,5 +1,6 @@
 #include "nc_interface/recorder.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -31,6 +32,12 @@ SafetyDecision CommandRecorder::record(const NcCommand& command) {
   }
   decisions_.push_back(d);
   return d;
+}
+
+void CommandRecorder::set_in_force(const AxisOffsets& offsets) {
+  if (const std::string e = validate(NcCommand{offsets}); !e.empty())
+    throw std::invalid_argument("offsets in force: " + e);
+  gate_.set_in_force(offsets);
 }
 
 std::string decision_json_line(const SafetyDecision& d) {
@@ -73,6 +80,8 @@ NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect
   NcOutputSummary summary;
   std::ostringstream safety;
   for (const NcCommand& c : commands) {
+    if (const auto* o = std::get_if<AxisOffsets>(&c); o && o->non_compensable_um_per_m)
+      summary.max_non_compensable_um_per_m = std::max(summary.max_non_compensable_um_per_m, *o->non_compensable_um_per_m);
     const SafetyDecision d = recorder.record(c);
     if (d.verdict == SafetyVerdict::Refused) ++summary.refused;
     if (d.verdict == SafetyVerdict::Split) ++summary.split;

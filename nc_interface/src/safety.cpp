@@ -120,6 +120,8 @@ AxisOffsets SafetyGate::current(int work_offset) const {
   return zero;
 }
 
+void SafetyGate::set_in_force(const AxisOffsets& offsets) { current_[offsets.work_offset] = offsets; }
+
 SafetyDecision SafetyGate::submit(const AxisOffsets& requested) {
   SafetyDecision d = check_offsets(limits_, current(requested.work_offset), requested);
   if (d.verdict != SafetyVerdict::Refused) current_[requested.work_offset] = requested;

@@ -4,13 +4,16 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <ostream>
 #include <poll.h>
+#include <random>
 #include <sstream>
 #include <sys/socket.h>
+#include <thread>
 #include <unistd.h>
 
 #include "nc_interface/nc_number.hpp"
@@ -69,7 +72,12 @@ void SpoolSink::deliver(const NcCommand& command) {
   last_ = path;
 }
 
-LinuxcncrshClient::LinuxcncrshClient(LinuxcncrshOptions options) : options_(std::move(options)) {}
+LinuxcncrshClient::LinuxcncrshClient(LinuxcncrshOptions options) : options_(std::move(options)) {
+  std::random_device random;
+  char nonce[16];
+  std::snprintf(nonce, sizeof nonce, "%08X", static_cast<unsigned>(random()));
+  readback_nonce_ = nonce;
+}
 
 LinuxcncrshClient::~LinuxcncrshClient() { close(); }
 
@@ -77,6 +85,7 @@ void LinuxcncrshClient::close() {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   buffer_.clear();
+  mm_per_unit_ = 0.0;
 }
 
 void LinuxcncrshClient::connect() {
@@ -186,6 +195,48 @@ std::array<double, 6> LinuxcncrshClient::position_offsets() {
   return out;
 }
 
+double LinuxcncrshClient::machine_mm_per_unit() {
+  if (mm_per_unit_ > 0.0) return mm_per_unit_;
+  const std::string reply = request("get user_linear_units");
+  if (reply == "USER_LINEAR_UNITS MM") mm_per_unit_ = 1.0;
+  else if (reply == "USER_LINEAR_UNITS INCH") mm_per_unit_ = 25.4;
+  else if (reply == "USER_LINEAR_UNITS CM") mm_per_unit_ = 10.0;
+  else throw SinkError("linuxcncrsh: machine length unit not mm, inch or cm ('get user_linear_units' answered '" +
+                       reply + "'), so work offsets cannot be read back");
+  return mm_per_unit_;
+}
+
+std::array<double, 6> LinuxcncrshClient::work_offset_values(int work_offset) {
+  const std::string name = work_offset_name(work_offset);  // throws for anything but 1…6
+  const double mm = machine_mm_per_unit();
+  const int first = 5201 + 20 * work_offset;  // G54: 5221 (X) … 5226 (C)
+  const std::string tag = "ALC-READBACK-" + readback_nonce_ + "-" + std::to_string(++readback_count_);
+  std::string line = "(DEBUG," + tag;
+  for (int k = 0; k < 6; ++k) line += " #" + std::to_string(first + k);
+  line += ")";
+  set("mode mdi");
+  set("set_wait done");
+  set("mdi " + line);
+  // The message goes to the operator display; `get operator_display` returns it once, then "OK".
+  const std::string prefix = "OPERATOR_DISPLAY " + tag + " ";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(options_.timeout_s);
+  for (;;) {
+    const std::string reply = request("get operator_display");
+    if (reply.rfind(prefix, 0) == 0) {
+      std::istringstream in(reply.substr(prefix.size()));
+      std::array<double, 6> out{};
+      for (double& v : out) in >> v;
+      if (in.fail()) throw SinkError("linuxcncrsh: unexpected read-back of " + name + ": '" + reply + "'");
+      for (int k = 0; k < 3; ++k) out[static_cast<std::size_t>(k)] *= mm;  // lengths: machine units -> mm
+      return out;
+    }
+    if (std::chrono::steady_clock::now() > deadline)
+      throw SinkError("linuxcncrsh: the read-back of " + name + " did not reach the operator display within " +
+                      std::to_string(options_.timeout_s) + " s (last reply '" + reply + "')");
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
 LinuxcncrshSink::LinuxcncrshSink(LinuxcncrshOptions options, DialectOptions nc)
     : options_(std::move(options)), nc_(std::move(nc)), client_(options_) {}
 
@@ -195,29 +246,34 @@ std::string LinuxcncrshSink::name() const {
 
 void LinuxcncrshSink::deliver(const NcCommand& command) {
   const std::vector<std::string> lines = linuxcnc_mdi_lines(command, nc_);
+  const auto* o = std::get_if<AxisOffsets>(&command);
   if (!client_.connected()) client_.connect();
+  std::array<double, 6> got{};
   try {
+    // Before anything is sent: the read-back must be possible (a machine length unit we can convert).
+    if (o) client_.machine_mm_per_unit();
     client_.mdi(lines);
+    if (!o) return;
+    // The stored value of the target work offset, not pos_offset (active work offset + G92).
+    got = client_.work_offset_values(o->work_offset);
   } catch (const SinkError&) {
     client_.close();  // a fresh session next time
     throw;
   }
-  const auto* o = std::get_if<AxisOffsets>(&command);
-  if (!o) return;
-  // pos_offset is the offset in force, so this holds when the target work offset is the active one.
   const BaseOffset& b = nc_.base[static_cast<std::size_t>(o->work_offset - 1)];
   const std::array<double, 6> want{b.x_mm + o->x_mm, b.y_mm + o->y_mm, b.z_mm + o->z_mm,
                                    b.a_deg + o->a_deg.value_or(0.0), b.b_deg + o->b_deg.value_or(0.0),
                                    b.c_deg + o->c_deg};
-  const std::array<double, 6> got = client_.position_offsets();
   static constexpr char kAxes[] = "XYZABC";
   for (std::size_t i = 0; i < 6; ++i) {
     if (i == 3 && !o->a_deg) continue;
     if (i == 4 && !o->b_deg) continue;
     // Compare with the text that was sent (4 decimals); LinuxCNC prints 6.
-    if (std::abs(got[i] - std::stod(format_nc_number(want[i]))) > 0.5e-4)
-      throw SinkError("linuxcncrsh: read back " + std::string(1, kAxes[i]) + " offset " + std::to_string(got[i]) +
-                      ", sent " + std::to_string(want[i]));
+    const std::string sent = format_nc_number(want[i]);
+    if (std::abs(got[i] - std::stod(sent)) > 0.5e-4)
+      throw SinkError("linuxcncrsh: read back " + work_offset_name(o->work_offset) + " " + std::string(1, kAxes[i]) +
+                      " offset " + std::to_string(got[i]) + " (parameter #" +
+                      std::to_string(5201 + 20 * o->work_offset + static_cast<int>(i)) + "), sent " + sent);
   }
 }
 

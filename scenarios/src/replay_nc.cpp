@@ -1,5 +1,6 @@
 #include "scenarios/replay_nc.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -8,22 +9,6 @@
 namespace alc::scenarios {
 
 namespace {
-
-// The seven location errors, in the order of their fields in kinematics::LocationErrors.
-const char* const kErrorNames[] = {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C"};
-
-void set_error(kinematics::LocationErrors& e, int field, double value) {
-  switch (field) {
-    case 0: e.x0c_um = value; break;
-    case 1: e.y0c_um = value; break;
-    case 2: e.z0t_um = value; break;
-    case 3: e.r0t_um = value; break;
-    case 4: e.a0c_um_per_m = value; break;
-    case 5: e.b0c_um_per_m = value; break;
-    case 6: e.c0c_um_per_m = value; break;
-    default: break;
-  }
-}
 
 bool differs(const nc::AxisOffsets& a, const nc::AxisOffsets& b, double resolution) {
   const double limit = resolution * (1.0 - 1e-9);
@@ -74,9 +59,7 @@ NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_name
   last_ = nc::to_axis_offsets(kinematics::Compensation{}, options_.chain, options_.work_offset);
   in_force_ = last_;
   for (const std::string& name : output_names) {
-    int field = -1;
-    for (int k = 0; k < 7; ++k)
-      if (name == kErrorNames[k]) field = k;
+    const int field = kinematics::location_error_field(name);
     field_of_output_.push_back(field);
     if (field >= 0) maps_any_ = true;
   }
@@ -109,13 +92,16 @@ void NcCommandObserver::handle(double time_s, const ControllerOutput& out, bool 
     const auto i = static_cast<Eigen::Index>(k);
     if (field_of_output_[k] < 0 || i >= out.prediction.size()) continue;
     const double v = out.prediction[i];
-    if (std::isfinite(v)) set_error(errors, field_of_output_[k], v);
+    if (std::isfinite(v)) kinematics::set_location_error(errors, field_of_output_[k], v);
   }
   const kinematics::Compensation c = kinematics::compensate(options_.chain, options_.pose, errors);
   if (!c.converged) {
     ++not_converged_;
     return;
   }
+  // What no axis can cancel (for an A-C table E_B0C): recorded on the command, never dropped.
+  max_non_compensable_um_per_m_ = std::max(max_non_compensable_um_per_m_, c.non_compensable_um_per_m);
+  // The target carries c.non_compensable_um_per_m, and so does every step toward it.
   const nc::AxisOffsets target = nc::to_axis_offsets(c, options_.chain, options_.work_offset);
   // Approach the target in steps within max_step, one per controller cycle while behind.
   nc::AxisOffsets request = step_toward(in_force_, target, options_.limits.max_step);

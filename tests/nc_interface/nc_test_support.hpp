@@ -11,6 +11,18 @@
 
 namespace alc::nc::test {
 
+// Axis offsets with A and C (the A–C table) on work offset `work_offset` (1 = G54).
+inline AxisOffsets offsets(double x, double y, double z, double a, double c, int work_offset = 1) {
+  AxisOffsets o;
+  o.x_mm = x;
+  o.y_mm = y;
+  o.z_mm = z;
+  o.a_deg = a;
+  o.c_deg = c;
+  o.work_offset = work_offset;
+  return o;
+}
+
 // The reviewed reference texts in tests/nc_interface/reference/ are written from these commands.
 inline std::vector<NcCommand> reference_commands() {
   AxisOffsets first;

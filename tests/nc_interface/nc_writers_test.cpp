@@ -27,16 +27,8 @@ namespace {
 constexpr double kExact = 0.0;  // [mm] values that must round-trip bit for bit
 const std::filesystem::path kReferenceDir = std::filesystem::path(ALC_SOURCE_DIR) / "tests/nc_interface/reference";
 
-AxisOffsets offsets(double x, double y, double z, double a, double c, int work_offset = 1) {
-  AxisOffsets o;
-  o.x_mm = x;
-  o.y_mm = y;
-  o.z_mm = z;
-  o.a_deg = a;
-  o.c_deg = c;
-  o.work_offset = work_offset;
-  return o;
-}
+using alc::nc::test::offsets;
+
 }  // namespace
 
 TEST_CASE("nc number: fixed point, four decimals, no exponent, no negative zero", "[nc][number]") {
@@ -114,6 +106,37 @@ TEST_CASE("dialects: LinuxCNC and Fanuc write base + compensation, Sinumerik and
   CHECK_THAT(write_program(Dialect::Heidenhain, c, o), Contains("CYCL DEF 7.1 X+0.0100"));
 }
 
+TEST_CASE("dialects: Sinumerik selects settable frames 5 and 6 with G505 and G506, never G58 or G59", "[nc][dialect]") {
+  // G58/G59 are Sinumerik's programmable axial offsets; settable frames $P_UIFR[5…99] are G505…G599.
+  const char* const selection[] = {"G54", "G55", "G56", "G57", "G505", "G506"};
+  for (int wo = 1; wo <= 6; ++wo) {
+    INFO("work offset " << wo);
+    const std::string text = write_program(Dialect::Sinumerik, {offsets(0.001, 0, 0, 0, 0, wo)});
+    std::istringstream in(text);
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+    REQUIRE(lines.size() == 8);  // comment, X Y Z A C, selection, M30
+    CHECK(lines[1] == "$P_UIFR[" + std::to_string(wo) + ",X,FI]=0.0010");
+    CHECK(lines[6] == selection[wo - 1]);
+    CHECK(text.find("G58") == std::string::npos);
+    CHECK(text.find("G59") == std::string::npos);
+  }
+}
+
+TEST_CASE("dialects: Fanuc selects metric input in a block of its own before the first G10", "[nc][dialect]") {
+  const std::string text = write_program(Dialect::Fanuc, {ProbeInterval{1.0, {}}, offsets(0.01, 0, 0, 0, 0)});
+  std::istringstream in(text);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  REQUIRE(lines.size() >= 5);
+  CHECK(lines[0] == "%");
+  CHECK(lines[2] == "G21");  // right after the program number, before any coordinate system is set
+  CHECK(std::count(lines.begin(), lines.end(), "G21") == 1);
+  CHECK(lines[4] == "G90 G10 L2 P1 X0.0100 Y0.0000 Z0.0000 A0.0000 C0.0000");
+  // Each spooled single-command program carries it too.
+  CHECK_THAT(write_program(Dialect::Fanuc, {offsets(0.01, 0, 0, 0, 0)}), Contains("\nG21\nG90 G10 L2 P1"));
+}
+
 TEST_CASE("jsonl: write then read gives the same commands", "[nc][jsonl]") {
   std::ostringstream out;
   write_commands_jsonl(out, reference_commands());
@@ -122,6 +145,30 @@ TEST_CASE("jsonl: write then read gives the same commands", "[nc][jsonl]") {
   CHECK(to_json_line(offsets(0.1, 0.2, 0.3, 0.4, 0.5, 3)) ==
         R"({"type":"axis_offsets","x_mm":0.1,"y_mm":0.2,"z_mm":0.3,"a_deg":0.4,"c_deg":0.5,"work_offset":"G56"})");
   CHECK(to_json_line(ProbeInterval{std::nullopt, 60.0}) == R"({"type":"probe_interval","minutes":null,"time_s":60.0})");
+}
+
+TEST_CASE("jsonl: the non-compensable part rides along, reads back, and never reaches the NC", "[nc][jsonl]") {
+  AxisOffsets o = offsets(0.01, -0.002, 0.003, 0.0004, -0.0005, 2);
+  o.non_compensable_um_per_m = 7.25;
+  o.time_s = 120.0;
+  CHECK(to_json_line(o) == R"({"type":"axis_offsets","x_mm":0.01,"y_mm":-0.002,"z_mm":0.003,"a_deg":0.0004,)"
+                           R"("c_deg":-0.0005,"work_offset":"G55","non_compensable_um_per_m":7.25,"time_s":120.0})");
+  std::istringstream in(to_json_line(o) + "\n");
+  const auto back = read_commands_jsonl(in, "mem");
+  REQUIRE(back.size() == 1);
+  CHECK(std::get<AxisOffsets>(back[0]) == o);
+  AxisOffsets plain = o;
+  plain.non_compensable_um_per_m.reset();
+  for (Dialect d : {Dialect::LinuxCNC, Dialect::Fanuc, Dialect::Sinumerik, Dialect::Heidenhain})
+    CHECK(write_program(d, {o}) == write_program(d, {plain}));
+  std::istringstream bad(R"({"type":"axis_offsets","x_mm":0,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"non_compensable_um_per_m":-1})");
+  try {
+    read_commands_jsonl(bad, "bad.jsonl");
+    FAIL("a negative non_compensable_um_per_m was accepted");
+  } catch (const JsonlError& e) {
+    CHECK(e.field == "non_compensable_um_per_m");
+    CHECK(e.value == "-1");
+  }
 }
 
 TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
@@ -191,9 +238,42 @@ TEST_CASE("safety: max_offset is refused, naming axis, value and limit", "[nc][s
   CHECK(d.violations[0].axis == 'C');
   CHECK(d.violations[0].limit == "max_offset");
   CHECK_THAT(d.message, Contains("axis C offset 0.0125 deg exceeds max_offset 0.0100 deg"));
-  // A refused command does not move the gate's state.
-  CHECK(gate.current(1) == gate.current(1));
-  CHECK(gate.current(1).c_deg == 0.0);
+  // A refused command does not move the gate's state: after an accepted command, a refused one
+  // (max_offset, then max_step) leaves exactly the accepted offsets in force.
+  const AxisOffsets accepted = offsets(0.004, -0.003, 0.002, 0.0006, 0.0007);
+  REQUIRE(gate.submit(accepted).verdict == SafetyVerdict::Accepted);
+  REQUIRE(gate.current(1) == accepted);
+  CHECK(gate.submit(offsets(0.004, -0.003, 0.002, 0.0006, 0.0125)).verdict == SafetyVerdict::Refused);
+  CHECK(gate.current(1) == accepted);
+  SafetyLimits refuse_steps;
+  SafetyGate strict(refuse_steps);
+  REQUIRE(strict.submit(accepted).verdict == SafetyVerdict::Accepted);
+  CHECK(strict.submit(offsets(0.05, -0.003, 0.002, 0.0006, 0.0007)).verdict == SafetyVerdict::Refused);
+  CHECK(strict.current(1) == accepted);
+  CHECK(strict.current(2) == offsets(0, 0, 0, 0, 0, 2));  // other work offsets untouched
+}
+
+TEST_CASE("safety: the gate can start from the offsets in force", "[nc][safety]") {
+  SafetyGate gate;
+  const AxisOffsets in_force = offsets(0.095, 0, 0, 0, 0.0095, 3);
+  gate.set_in_force(in_force);
+  CHECK(gate.current(3) == in_force);
+  CHECK(gate.current(1) == offsets(0, 0, 0, 0, 0, 1));
+  // 0.1 mm is one step of 0.005 mm from what is in force, but ten max_steps from zero.
+  CHECK(gate.submit(offsets(0.1, 0, 0, 0, 0.01, 3)).verdict == SafetyVerdict::Accepted);
+  CHECK(gate.submit(offsets(0.1, 0, 0, 0, 0.01, 1)).verdict == SafetyVerdict::Refused);
+  // And back to zero at once is a step too large.
+  SafetyGate back;
+  back.set_in_force(in_force);
+  const auto d = back.submit(offsets(0, 0, 0, 0, 0, 3));
+  CHECK(d.verdict == SafetyVerdict::Refused);
+  CHECK_THAT(d.message, Contains("axis X change -0.0950 mm exceeds max_step 0.0100 mm"));
+  CommandRecorder recorder;
+  AxisOffsets bad = in_force;
+  bad.x_mm = std::nan("");
+  CHECK_THROWS_WITH(recorder.set_in_force(bad), Contains("offsets in force") && Contains("x_mm"));
+  recorder.set_in_force(in_force);
+  CHECK(recorder.current(3) == in_force);
 }
 
 TEST_CASE("safety: max_step refuses or splits, by configuration", "[nc][safety]") {
@@ -293,10 +373,14 @@ TEST_CASE("replay entry point: commands.jsonl, program and safety record", "[nc]
   const auto dir = alc::nc::test::fresh_dir("recorder");
   SafetyLimits limits;
   limits.on_step_violation = StepAction::Split;
-  const std::vector<NcCommand> commands{offsets(0.02, 0, 0, 0, 0), ProbeInterval{10.0, {}},
-                                        offsets(0.5, 0, 0, 0, 0)};  // second offset: refused
+  AxisOffsets first = offsets(0.02, 0, 0, 0, 0);
+  first.non_compensable_um_per_m = 3.5;
+  AxisOffsets refused = offsets(0.5, 0, 0, 0, 0);  // second offset: refused
+  refused.non_compensable_um_per_m = 4.25;
+  const std::vector<NcCommand> commands{first, ProbeInterval{10.0, {}}, refused};
   const NcOutputSummary s = write_replay_nc_output(dir / "nc", Dialect::LinuxCNC, commands, {}, limits);
   CHECK(s.requested == 3);
+  CHECK(s.max_non_compensable_um_per_m == 4.25);  // of every command given, refused ones included
   CHECK(s.sent == 3);  // 2 steps + the interval
   CHECK(s.split == 1);
   CHECK(s.refused == 1);
@@ -304,11 +388,15 @@ TEST_CASE("replay entry point: commands.jsonl, program and safety record", "[nc]
   const auto sent = read_commands_jsonl(jsonl, s.commands_file.string());
   REQUIRE(sent.size() == 3);
   CHECK(std::get<AxisOffsets>(sent[1]).x_mm == 0.02);
+  // Each split step keeps the non-compensable part of the request it belongs to.
+  CHECK(std::get<AxisOffsets>(sent[0]).non_compensable_um_per_m == 3.5);
+  CHECK(std::get<AxisOffsets>(sent[1]).non_compensable_um_per_m == 3.5);
   CHECK(s.program_file.filename() == "program.ngc");
   CHECK_THAT(alc::nc::test::read_text(s.program_file), Contains("G21 G10 L2 P1 X0.0100") && Contains("#3001 = 10.0000"));
   const std::string safety = alc::nc::test::read_text(s.safety_file);
   CHECK_THAT(safety, Contains("\"verdict\":\"split\"") && Contains("\"verdict\":\"refused\"") &&
-                         Contains("axis X offset 0.5000 mm exceeds max_offset 0.1000 mm"));
+                         Contains("axis X offset 0.5000 mm exceeds max_offset 0.1000 mm") &&
+                         Contains("\"non_compensable_um_per_m\":4.25"));
   std::filesystem::remove_all(dir);
 }
 
@@ -414,6 +502,47 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   alc::nc::test::write_text(dir / "m.toml", "[limits]\non_step_violation = \"split\"\n[limits.max_offset]\nx_mm = 0.5\n");
   CHECK(run("--dialect fanuc --machine " + (dir / "m.toml").string() + " --in " + (dir / "big.jsonl").string()) == 0);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("split into 20 steps"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("alc nc: --in-force makes max_step count from the offsets in force", "[nc][cli]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_in_force");
+  const std::string alc = ALC_CLI_PATH;
+  const auto run = [&](const std::string& args) {
+    const std::string cmd = alc + " nc " + args + " > " + (dir / "out").string() + " 2> " + (dir / "err").string();
+    const int status = std::system(cmd.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  const std::string near = (dir / "near.jsonl").string();  // 0.1 mm on G55: one small step from 0.095 mm
+  alc::nc::test::write_text(near, to_json_line(offsets(0.1, 0, 0, 0, 0, 2)) + "\n");
+  const std::string zero = (dir / "zero.jsonl").string();  // back to zero on G55
+  alc::nc::test::write_text(zero, to_json_line(offsets(0, 0, 0, 0, 0, 2)) + "\n");
+  const std::string state = (dir / "state.jsonl").string();
+  alc::nc::test::write_text(state, to_json_line(offsets(0.095, 0, 0, 0, 0, 2)) + "\n" +
+                                       to_json_line(offsets(-0.05, 0, 0, 0, 0, 1)) + "\n");
+  // Without a state the first command is judged against zero offsets …
+  CHECK(run("--dialect linuxcnc --in " + near) == 1);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("axis X change 0.1000 mm exceeds max_step 0.0100 mm"));
+  CHECK(run("--dialect linuxcnc --in " + zero) == 0);
+  // … with it, against the offsets in force.
+  CHECK(run("--dialect linuxcnc --in-force " + state + " --in " + near) == 0);
+  CHECK_THAT(alc::nc::test::read_text(dir / "out"), Contains("G21 G10 L2 P2 X0.1000"));
+  CHECK(run("--dialect linuxcnc --in-force " + state + " --in " + zero) == 1);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("axis X change -0.0950 mm exceeds max_step 0.0100 mm"));
+  CHECK(alc::nc::test::read_text(dir / "out").empty());
+  // A bad state file is a usage error naming the file.
+  alc::nc::test::write_text(dir / "twice.jsonl", to_json_line(offsets(0, 0, 0, 0, 0, 2)) + "\n" +
+                                                     to_json_line(offsets(0.001, 0, 0, 0, 0, 2)) + "\n");
+  CHECK(run("--dialect linuxcnc --in-force " + (dir / "twice.jsonl").string() + " --in " + near) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("twice.jsonl") && Contains("G55 is given twice"));
+  alc::nc::test::write_text(dir / "interval.jsonl", "{\"type\":\"probe_interval\",\"minutes\":5}\n");
+  CHECK(run("--dialect linuxcnc --in-force " + (dir / "interval.jsonl").string() + " --in " + near) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not an axis_offsets line"));
+  CHECK(run("--dialect linuxcnc --in-force " + (dir / "missing.jsonl").string() + " --in " + near) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("cannot open"));
+  // The help says what happens without it.
+  CHECK(run("--help") == 0);
+  CHECK_THAT(alc::nc::test::read_text(dir / "out"), Contains("--in-force") && Contains("judged against zero offsets"));
   std::filesystem::remove_all(dir);
 }
 

@@ -2,6 +2,7 @@
 // LinuxCNC's standalone interpreter rs274, and `alc replay --nc-out` end to end.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -11,7 +12,9 @@
 #include <vector>
 
 #include "../nc_interface/nc_test_support.hpp"
+#include "alc/kinematics.hpp"
 #include "nc_interface/dialects.hpp"
+#include "nc_interface/jsonl.hpp"
 #include "nc_interface/nc_number.hpp"
 #include "nc_interface/recorder.hpp"
 #include "scenarios/load_cases.hpp"
@@ -21,6 +24,7 @@
 namespace fs = std::filesystem;
 namespace sc = alc::scenarios;
 namespace nc = alc::nc;
+namespace kinematics = alc::kinematics;
 using alc::nc::test::read_text;
 using alc::nc::test::write_text;
 
@@ -86,7 +90,70 @@ double var_value(const std::string& var, int parameter) {
   return 0.0;
 }
 
+// Forwards every callback to the NC observer and keeps, for each axis_offsets command it emits,
+// the prediction of the controller cycle that emitted it.
+class PredictionTap : public sc::ReplayObserver {
+ public:
+  explicit PredictionTap(sc::NcCommandObserver& nc) : nc_(nc) {}
+  void on_row_done(const sc::ReplaySession& session) override { nc_.on_row_done(session); }
+  void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const alc::ControllerOutput& out) override {
+    const std::size_t before = nc_.commands().size();
+    nc_.on_sample(row, time_s, inputs, out);
+    keep(before, out);
+  }
+  void on_probe(std::size_t row, const alc::ProbeMeasurement& probe, const alc::ControllerOutput& out) override {
+    const std::size_t before = nc_.commands().size();
+    nc_.on_probe(row, probe, out);
+    keep(before, out);
+  }
+  std::vector<std::pair<nc::AxisOffsets, Eigen::VectorXd>> emitted;
+
+ private:
+  void keep(std::size_t before, const alc::ControllerOutput& out) {
+    for (std::size_t i = before; i < nc_.commands().size(); ++i)
+      if (const auto* o = std::get_if<nc::AxisOffsets>(&nc_.commands()[i])) emitted.emplace_back(*o, out.prediction);
+  }
+  sc::NcCommandObserver& nc_;
+};
+
 }  // namespace
+
+TEST_CASE("replay NC output: each offset command records the non-compensable part of its prediction",
+          "[replay][nc]") {
+  const sc::Scenario scenario = sc::simulate_case("A").scenario;
+  const sc::NcObserverOptions options;  // A-C table: what no axis cancels is the tilt E_B0C
+  sc::NcCommandObserver observer(scenario.output_names, options);
+  PredictionTap tap(observer);
+  sc::replay(scenario, alc::AlcParameters{}, &tap);
+  REQUIRE(tap.emitted.size() > 10);
+  double largest = 0.0;
+  for (const auto& [command, prediction] : tap.emitted) {
+    INFO("command at t = " << command.time_s.value_or(-1.0) << " s");
+    REQUIRE(command.non_compensable_um_per_m.has_value());
+    const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
+    const kinematics::Compensation c = kinematics::compensate(options.chain, options.pose, errors);
+    REQUIRE(c.converged);
+    CHECK(*command.non_compensable_um_per_m == c.non_compensable_um_per_m);
+    // For an A-C table it is |E_B0C| up to the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
+    CHECK(std::abs(*command.non_compensable_um_per_m - std::abs(errors.b0c_um_per_m)) < 1e-3);
+    largest = std::max(largest, *command.non_compensable_um_per_m);
+  }
+  CHECK(largest > 0.1);  // the case does predict a tilt that the offsets leave
+  CHECK(observer.max_non_compensable_um_per_m() >= largest);
+
+  // It is in DIR/commands.jsonl (and reads back), and the summary has its maximum.
+  const fs::path dir = alc::nc::test::fresh_dir("replay_non_compensable");
+  const nc::NcOutputSummary s = nc::write_replay_nc_output(dir, nc::Dialect::LinuxCNC, observer.commands());
+  CHECK(s.max_non_compensable_um_per_m == largest);
+  std::istringstream jsonl(read_text(s.commands_file));
+  const std::vector<nc::NcCommand> written = nc::read_commands_jsonl(jsonl, s.commands_file.string());
+  std::size_t with_value = 0;
+  for (const nc::NcCommand& c : written)
+    if (const auto* o = std::get_if<nc::AxisOffsets>(&c); o && o->non_compensable_um_per_m) ++with_value;
+  CHECK(with_value == tap.emitted.size());
+  CHECK(written == observer.recorder().to_send());  // round trip, field included
+  fs::remove_all(dir);
+}
 
 TEST_CASE("replay NC output: every load case's linuxcnc program passes rs274 with the intended offsets",
           "[replay][nc][rs274]") {
@@ -166,9 +233,14 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
   const std::string jsonl = read_text(dir / "out" / "commands.jsonl");
   CHECK(jsonl.find("\"type\":\"axis_offsets\"") != std::string::npos);
   CHECK(jsonl.find("\"type\":\"probe_interval\"") != std::string::npos);
+  CHECK(jsonl.find("\"non_compensable_um_per_m\":") != std::string::npos);
   CHECK(read_text(dir / "out" / "program.ngc").find("G10 L2 P1") != std::string::npos);
   CHECK(err.find("commands") != std::string::npos);
   CHECK(err.find("refused") != std::string::npos);
+  // What no axis can cancel is said, not dropped: the largest value of the run (A: E_B0C is tens of µm/m).
+  const auto at = err.find("largest non-compensable tilt ");
+  REQUIRE(at != std::string::npos);
+  CHECK(std::stod(err.substr(at + std::string("largest non-compensable tilt ").size())) > 1.0);
 
   // A bad dialect is a usage error.
   const std::string bad = std::string("\"") + ALC_CLI_PATH + "\" replay --case A --nc-out \"" + (dir / "bad").string() +

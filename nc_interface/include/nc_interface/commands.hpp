@@ -9,7 +9,8 @@
 
 namespace alc::nc {
 
-// Work offsets the commands may target: 1 = G54 … 6 = G59 (every dialect has these six).
+// Work offsets the commands may target: 1 = G54 … 6 = G59 (every dialect has these six; on a
+// Sinumerik they are the settable frames $P_UIFR[1…6], selected by G54…G57, G505, G506).
 inline constexpr int kMinWorkOffset = 1;
 inline constexpr int kMaxWorkOffset = 6;
 
@@ -30,6 +31,10 @@ struct AxisOffsets {
   double c_deg = 0.0;                // [°]
   int work_offset = 1;               // 1 = G54 … 6 = G59
   std::optional<double> time_s;      // [s] when it was decided (for the record; never written to NC)
+  // [µm/m] the part of the error these offsets cannot cancel (kinematics::Compensation::
+  // non_compensable_um_per_m of the compensation they were computed from), >= 0. For the record,
+  // never written to NC; empty when unknown (e.g. a command written by hand).
+  std::optional<double> non_compensable_um_per_m;
   bool operator==(const AxisOffsets&) const = default;
 };
 
@@ -42,7 +47,8 @@ struct ProbeInterval {
 
 using NcCommand = std::variant<AxisOffsets, ProbeInterval>;
 
-// Axis offsets that realise a kinematic compensation (µm → mm, µrad → °).
+// Axis offsets that realise a kinematic compensation (µm → mm, µrad → °), with the compensation's
+// non-compensable part in non_compensable_um_per_m.
 AxisOffsets to_axis_offsets(const kinematics::Compensation& compensation, const kinematics::MachineChain& chain,
                             int work_offset = 1);
 

@@ -3,7 +3,8 @@
 //   {"type":"axis_offsets","x_mm":0.0123,"y_mm":-0.004,"z_mm":0.01,"a_deg":0.001,"c_deg":-0.002,"work_offset":"G54"}
 //   {"type":"probe_interval","minutes":30}          ("minutes":null = never probe again)
 // Optional in both: "time_s" (number). Axis offsets: x_mm, y_mm, z_mm, c_deg required; exactly one of
-// a_deg, b_deg; work_offset "G54"…"G59" (default "G54"). Unknown fields are errors, so a typo
+// a_deg, b_deg; work_offset "G54"…"G59" (default "G54"); optional "non_compensable_um_per_m" (>= 0,
+// what the offsets cannot cancel; never written to NC). Unknown fields are errors, so a typo
 // never silently becomes a zero offset. Empty lines are skipped.
 #include <iosfwd>
 #include <stdexcept>

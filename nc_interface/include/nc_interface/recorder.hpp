@@ -22,6 +22,10 @@ class CommandRecorder {
   // Returns the decision (probe intervals are always accepted once valid; an invalid command of
   // either kind is refused with the reason in the message).
   SafetyDecision record(const NcCommand& command);
+  // The offsets in force on `offsets.work_offset` before the first command (SafetyGate::set_in_force).
+  // Throws std::invalid_argument for an invalid value (validate(NcCommand)).
+  void set_in_force(const AxisOffsets& offsets);
+  AxisOffsets current(int work_offset) const { return gate_.current(work_offset); }
   const std::vector<NcCommand>& to_send() const { return to_send_; }            // split steps expanded
   const std::vector<SafetyDecision>& decisions() const { return decisions_; }   // one per record()
 
@@ -39,6 +43,8 @@ struct NcOutputSummary {
   std::size_t sent = 0;                  // commands written (after splitting)
   std::size_t refused = 0;
   std::size_t split = 0;
+  // [µm/m] largest non_compensable_um_per_m of the axis-offset commands given (0 if none has one).
+  double max_non_compensable_um_per_m = 0.0;
 };
 
 // Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each to a temporary name then

@@ -57,13 +57,18 @@ struct SafetyDecision {
 // A max_offset violation is always refused (no number of steps makes it safe).
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested);
 
-// The stateful gate: remembers the offsets in force per work offset (zero at the start) and
-// decides each command. Probe-interval commands pass (their validity is checked by the writers).
+// The stateful gate: remembers the offsets in force per work offset (zero at the start unless
+// set_in_force() says otherwise) and decides each command. Probe-interval commands pass (their
+// validity is checked by the writers).
 class SafetyGate {
  public:
   explicit SafetyGate(SafetyLimits limits = {});
   SafetyDecision submit(const AxisOffsets& requested);
-  AxisOffsets current(int work_offset) const;  // zero offsets before the first accepted command
+  // The offsets in force now on `offsets.work_offset` (e.g. read back from the machine): the next
+  // command for that work offset is judged against them. Not checked against the limits: it is
+  // what the machine has, not a request.
+  void set_in_force(const AxisOffsets& offsets);
+  AxisOffsets current(int work_offset) const;  // zero offsets before the first accepted command or set_in_force
   const SafetyLimits& limits() const { return limits_; }
 
  private:

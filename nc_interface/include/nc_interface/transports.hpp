@@ -83,18 +83,32 @@ class LinuxcncrshClient {
   void set(const std::string& what);
   // Sends each line as "set mdi LINE" after "set mode mdi" and "set set_wait done".
   void mdi(const std::vector<std::string>& lines);
-  // Offsets in force (G5x + G92) of X Y Z A B C, [mm] and [°] ("get pos_offset").
+  // Offsets in force of X Y Z A B C in the display units ("get pos_offset"): the ACTIVE work offset
+  // plus G92, so not the stored value of any one work offset. Kept for checks by hand.
   std::array<double, 6> position_offsets();
+  // mm per machine length unit ([TRAJ] LINEAR_UNITS, "get user_linear_units"): 1 (MM), 25.4 (INCH),
+  // 10 (CM); SinkError for anything else. Asked once per session.
+  double machine_mm_per_unit();
+  // The stored value of work offset `work_offset` (1 = G54 … 6 = G59): X Y Z [mm], A B C [°], read
+  // from its numbered parameters 5221 + 20·(n−1) … +5 (machine units) by the MDI line
+  // "(DEBUG,ALC-READBACK-… #5221 …)" and `get operator_display`. Valid whichever work offset is
+  // active and whatever G92 is. Switches to MDI mode; the message also shows on an operator GUI.
+  std::array<double, 6> work_offset_values(int work_offset);
 
  private:
   std::string read_line();
   LinuxcncrshOptions options_;
   int fd_ = -1;
   std::string buffer_;
+  double mm_per_unit_ = 0.0;        // 0 = not asked yet in this session
+  std::string readback_nonce_;      // tells this client's read-back messages from stale ones
+  unsigned long readback_count_ = 0;
 };
 
-// Sends each command as MDI lines to a running LinuxCNC and reads the offsets back: a mismatch
-// with what was sent (> 0.00005 mm or °) is a SinkError.
+// Sends each command as MDI lines to a running LinuxCNC. For axis offsets it first asks the machine's
+// length unit (an unknown unit: SinkError, nothing sent), then reads the target work offset back
+// from its parameters (work_offset_values): a mismatch with what was sent (> 0.00005 mm or °) is a
+// SinkError.
 class LinuxcncrshSink : public Sink {
  public:
   explicit LinuxcncrshSink(LinuxcncrshOptions options = {}, DialectOptions nc = {});

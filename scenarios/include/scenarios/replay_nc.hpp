@@ -16,6 +16,9 @@
 //   by at least `resolution` (0.0001 mm / 0.0001°, the NC resolution). A refused request (beyond
 //   max_offset) stops the stepping until the next regular moment.
 // - Every ProbeIntervalChange event gives a probe_interval command (an infinite interval: "never").
+// - What the offsets cannot cancel is kept, not dropped: every axis_offsets command carries the
+//   non_compensable_um_per_m of the compensation of the prediction it moves toward (also in
+//   DIR/commands.jsonl), and max_non_compensable_um_per_m() is its maximum over all moments.
 // The output names E_X0C, E_Y0C, E_Z0T, E_R0T, E_A0C, E_B0C, E_C0C map to the seven location errors;
 // other outputs are ignored, and without any of the seven no axis offsets are emitted.
 #include <cstddef>
@@ -70,6 +73,9 @@ class NcCommandObserver : public ReplayObserver {
   const nc::CommandRecorder& recorder() const { return recorder_; }
   std::size_t refused() const { return refused_; }
   std::size_t not_converged() const { return not_converged_; }  // moments skipped: compensate() failed
+  // [µm/m] largest Compensation::non_compensable_um_per_m over every moment with a converged
+  // compensation (also those that emitted no command); 0 before the first.
+  double max_non_compensable_um_per_m() const { return max_non_compensable_um_per_m_; }
   bool maps_any_error() const { return maps_any_; }
 
  private:
@@ -87,6 +93,7 @@ class NcCommandObserver : public ReplayObserver {
   double next_periodic_s_ = -kInf;     // [s]
   std::size_t refused_ = 0;
   std::size_t not_converged_ = 0;
+  double max_non_compensable_um_per_m_ = 0.0;  // [µm/m]
   std::optional<NcHistoryTarget> history_;
 };
 
