@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "alc/error_kind.hpp"
+#include "alc/statistics.hpp"
 #include "alc/thermal_model.hpp"
 #include "lag_filter.hpp"
 #include "least_squares.hpp"
@@ -106,6 +107,11 @@ class OutputData {
       }
     }
     return phi;
+  }
+
+  // The nearly unbiased weighted least squares fit of a structure (the search's solve).
+  detail::LinearFit fit(const Structure& s) const {
+    return detail::solve_weighted_ridge(design(s), y_, w_, selection_ridge(), 1);
   }
 
   // Lower is better. BIC/AIC on the weighted residual variance; hold-out on every 4th measurement.
@@ -503,6 +509,24 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
     sum.order = om.order;
     for (const int i : s.inputs) sum.inputs_chosen.push_back(history.input_names[static_cast<std::size_t>(i)]);
     sum.condition = cond.condition;
+    if (!kept) {
+      // Significance of each chosen input (seed 000's OLS p-values): the partial F test of dropping
+      // its lags from the chosen structure, on the search's nearly unbiased fits.
+      const detail::LinearFit with_all = data.fit(s);
+      const double dof = static_cast<double>(m - s.parameters());
+      const double k = static_cast<double>(s.poles.size());
+      for (std::size_t j = 0; j < s.inputs.size(); ++j) {
+        Structure reduced = s;
+        reduced.inputs.erase(reduced.inputs.begin() + static_cast<std::ptrdiff_t>(j));
+        const detail::LinearFit without = data.fit(reduced);
+        double p_value = std::numeric_limits<double>::quiet_NaN();
+        if (with_all.ok && without.ok && dof >= 1.0 && k > 0.0 && with_all.weighted_rss > 0.0) {
+          const double f = ((without.weighted_rss - with_all.weighted_rss) / k) / (with_all.weighted_rss / dof);
+          p_value = f_distribution_sf(std::max(f, 0.0), k, dof);
+        }
+        sum.input_p_values.push_back(p_value);
+      }
+    }
     sum.time_constants_s = tau;
     sum.parameter_std = cond.parameter_std;
     om.output_limit = std::max(options.output_limit_factor * y_max, 20.0 * scale);

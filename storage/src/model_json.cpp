@@ -82,12 +82,16 @@ std::string fit_summary_to_json(const alc::FitResult& fit) {
   j["usable"] = fit.usable;
   j["message"] = fit.message;
   j["outputs"] = json::array();
-  for (const auto& o : fit.outputs)
+  for (const auto& o : fit.outputs) {
+    json p_values = json::array();
+    for (const double p : o.input_p_values) p_values.push_back(number(p));
     j["outputs"].push_back({{"name", o.name}, {"usable", o.usable}, {"message", o.message}, {"order", o.order},
-                            {"inputs_chosen", o.inputs_chosen}, {"measurements", o.measurements},
+                            {"inputs_chosen", o.inputs_chosen}, {"input_p_values", p_values},
+                            {"measurements", o.measurements},
                             {"residual_rms", number(o.residual_rms)}, {"residual_max", number(o.residual_max)},
                             {"condition", number(o.condition)}, {"cost_before", number(o.cost_before)},
                             {"cost_after", number(o.cost_after)}});
+  }
   return j.dump();
 }
 

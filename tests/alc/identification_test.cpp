@@ -224,6 +224,32 @@ TEST_CASE("identify: 16 temperatures and 80 measurements do not overfit") {
   if (everything.usable) CHECK(rmse_selected < held_out_rmse(everything));
 }
 
+TEST_CASE("identify: the p-value of each chosen input separates the inputs the errors depend on") {
+  std::mt19937_64 rng(77);
+  const InputHistory h = test::make_history(rng, 3 * 86400.0, 60.0);  // T_ENV, n_C, FLUID
+  const ThermalModel truth =
+      test::truth_model(h, {test::output_model("E_X0C", {0, 1}, {grid_tau(2), grid_tau(4)}, {0.5, 3.0, 1.0, 0.002, 0.001})});
+  const auto probes = test::probes_at(h, test::simulate(truth, h), test::probe_samples(h, 6.5 * 3600.0, 300.0, 3600.0), &rng, 0.3);
+  IdentificationOptions forced;
+  forced.select_inputs = false;  // FLUID is kept although the errors do not depend on it
+  const FitResult fit = identify(h, {"E_X0C"}, probes, forced);
+  REQUIRE(fit.usable);
+  REQUIRE(fit.outputs[0].inputs_chosen == std::vector<std::string>{"T_ENV", "n_C", "FLUID"});
+  const auto& p = fit.outputs[0].input_p_values;
+  REQUIRE(p.size() == 3);
+  INFO("p-values " << p[0] << ", " << p[1] << ", " << p[2]);
+  CHECK(p[0] < 1e-6);
+  CHECK(p[1] < 1e-6);
+  CHECK(p[2] > 0.01);
+  // Forward selection by BIC keeps only inputs that are significant at least at the 5 % level.
+  const FitResult selected = identify(h, {"E_X0C"}, probes, {});
+  REQUIRE(selected.usable);
+  REQUIRE(selected.outputs[0].input_p_values.size() == selected.outputs[0].inputs_chosen.size());
+  for (const double v : selected.outputs[0].input_p_values) CHECK(v < 0.05);
+  // A refit keeps the structure and does not test it again.
+  CHECK(refit(h, {"E_X0C"}, probes, {}, selected.model).outputs[0].input_p_values.empty());
+}
+
 TEST_CASE("identify: degenerate data gives no NaN and says why it is not usable") {
   std::mt19937_64 rng(6);
   InputHistory h = test::make_history(rng, 86400.0, 60.0);

@@ -112,6 +112,9 @@ struct OutputFitSummary {
   double cost_after = 0.0;
   std::vector<double> time_constants_s;      // [s] of the chosen poles
   Eigen::VectorXd parameter_std;             // standard errors of `parameters` (weighted LS, same units)
+  std::vector<double> input_p_values;        // [-] per chosen input, the p-value of the partial F test of
+                                             //     dropping its lags (seed 000's significance); NaN when
+                                             //     undefined; empty when the structure was kept (refit())
 };
 
 struct FitResult {
