@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <fcntl.h>
 #include <random>
-#include <regex>
 #include <sstream>
 #include <sys/file.h>
 #include <sys/stat.h>

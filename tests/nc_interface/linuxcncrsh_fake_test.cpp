@@ -2,6 +2,7 @@
 // refuses, without starting the simulator (linuxcnc_test.cpp does that). The fake keeps the numbered
 // parameters of the six work offsets (machine units), an active work offset, a G92 offset, and the
 // operator display, as LinuxCNC does; it answers the requests LinuxcncrshClient sends.
+#include <cctype>
 #include <catch2/catch.hpp>
 
 #include <arpa/inet.h>
@@ -15,7 +16,6 @@
 #include <mutex>
 #include <netinet/in.h>
 #include <poll.h>
-#include <regex>
 #include <sstream>
 #include <sys/socket.h>
 #include <thread>
@@ -115,16 +115,20 @@ class FakeLinuxcncrsh {
   void mdi(const std::string& text) {
     if (text.rfind("(DEBUG,", 0) == 0) {
       if (!answer_debug) return;
-      std::string body = text.substr(7, text.size() - 8);
-      const std::regex parameter("#([0-9]+)");
+      // Replaces every #NNNN by the parameter's value, as LinuxCNC's DEBUG comment does.
+      const std::string body = text.substr(7, text.size() - 8);
       std::string out;
-      std::sregex_iterator it(body.begin(), body.end(), parameter), end;
-      std::size_t at = 0;
-      for (; it != end; ++it) {
-        out += body.substr(at, static_cast<std::size_t>(it->position()) - at) + f(params[std::stoi((*it)[1])]);
-        at = static_cast<std::size_t>(it->position() + it->length());
+      for (std::size_t at = 0; at < body.size();) {
+        std::size_t end = at + 1;
+        while (body[at] == '#' && end < body.size() && std::isdigit(static_cast<unsigned char>(body[end]))) ++end;
+        if (body[at] == '#' && end > at + 1) {
+          out += f(params[std::stoi(body.substr(at + 1, end - at - 1))]);
+          at = end;
+        } else {
+          out += body[at++];
+        }
       }
-      display.push_back(out + body.substr(at));
+      display.push_back(out);
       return;
     }
     std::istringstream in(text);
