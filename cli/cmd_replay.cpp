@@ -51,6 +51,7 @@ struct ReplayArgs {
   std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
   double acl_lin = 5.0, acl_ang = 15.0;
   std::string window = "inf", half_life = "inf", method = "fixed-poles";
+  std::string since;           // [h] of scenario time: learn only from probes at or after it; "" = all
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;
   bool no_refit = false;
@@ -86,6 +87,10 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   p.confirm_breach = !a.no_refit && !a.no_confirm;
   p.structure_refresh = parse_tab1("--structure-refresh", a.structure_refresh, 1.0);
   p.learning_window_s = parse_tab1("--window", a.window, 3600.0);
+  if (!a.since.empty()) {
+    p.learning_since_s = parse_tab1("--since", a.since, 3600.0);
+    if (!std::isfinite(p.learning_since_s)) throw UsageError("--since: '" + a.since + "' is not a finite time [h]");
+  }
   p.identification.forgetting_half_life_s = parse_tab1("--half-life", a.half_life, 3600.0);
   p.identification.max_order = a.max_order;
   if (a.method == "fixed-poles")
@@ -201,6 +206,8 @@ std::string config_json(const ReplayArgs& a, const std::string& source) {
                       {"confirm_breach", !a.no_refit && !a.no_confirm},
                       {"structure_refresh", a.structure_refresh}};
   if (a.seed_given) j["seed"] = a.seed;
+  if (!a.machine.empty()) j["machine"] = a.machine;  // its chain gives the stored offsets: --resume must repeat it
+  if (!a.since.empty()) j["since_h"] = a.since;  // only when given: histories of earlier versions resume
   return j.dump();
 }
 
@@ -335,6 +342,15 @@ void run_replay(const ReplayArgs& a) {
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   NcSetup nc_setup;
+  // The machine's chain gives the offsets of --nc-out and those stored with --db.
+  if (!a.machine.empty() && a.nc_out.empty() && a.db.empty()) throw UsageError("--machine needs --nc-out or --db");
+  if (!a.machine.empty()) {
+    try {
+      nc_setup.config = nc::read_machine_config(a.machine);
+    } catch (const nc::ConfigError& e) {
+      throw UsageError(e.what());
+    }
+  }
   if (!a.nc_out.empty()) {
     if (a.resume)
       throw UsageError(
@@ -343,15 +359,8 @@ void run_replay(const ReplayArgs& a) {
     if (!dialect)
       throw UsageError("--dialect: '" + a.dialect + "' is not one of linuxcnc, fanuc, sinumerik, heidenhain");
     nc_setup.dialect = *dialect;
-    if (!a.machine.empty()) {
-      try {
-        nc_setup.config = nc::read_machine_config(a.machine);
-      } catch (const nc::ConfigError& e) {
-        throw UsageError(e.what());
-      }
-    }
-  } else if (a.dialect != "linuxcnc" || !a.machine.empty()) {
-    throw UsageError("--dialect and --machine need --nc-out");
+  } else if (a.dialect != "linuxcnc") {
+    throw UsageError("--dialect needs --nc-out");
   }
 
   std::vector<std::pair<std::string, scenarios::ReplayReport>> reports;
@@ -413,6 +422,10 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--acl-ang", args->acl_ang, "Action control limit of angular errors [µm/m]")->capture_default_str();
   cmd->add_option("--window", args->window, "Re-identify on the data of the last H hours, or inf (all data)")
       ->capture_default_str();
+  cmd->add_option("--since", args->since,
+                  "Re-identify only on probes from scenario time H hours on (time_s >= 3600 H), e.g. after a "
+                  "repair; the model in use is kept until enough probes exist since then")
+      ->type_name("H");
   cmd->add_option("--half-life", args->half_life, "Forgetting: a probe's weight halves every H hours, or inf")
       ->capture_default_str();
   cmd->add_option("--method", args->method, "Identification route: fixed-poles or output-error (docs/identification.md)")
@@ -435,8 +448,9 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");
   cmd->add_flag("--resume", args->resume,
                 "Continue the latest unfinished run of this scenario in --db from its saved state");
-  cmd->add_option("--kill-at", args->kill_at_h, "Fault injection for tests: SIGKILL at H hours of scenario time")
-      ->group("");
+  cmd->add_option("--kill-at", args->kill_at_h,
+                  "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
+                  "time, leaving the history as a crash would");
   cmd->add_flag("--json", args->json, "Print the result as JSON instead of tables");
   cmd->add_option("--residuals", args->residuals,
                   "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "
@@ -447,8 +461,8 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--dialect", args->dialect, "NC dialect of --nc-out: linuxcnc, fanuc, sinumerik or heidenhain")
       ->capture_default_str();
   cmd->add_option("--machine", args->machine,
-                  "Machine config (TOML) for --nc-out: kinematic chain, NC options, safety limits "
-                  "(default: the built-in A-C chain and limits)");
+                  "Machine config (TOML) for --nc-out and --db: kinematic chain (also of the offsets stored with "
+                  "the predictions), NC options, safety limits (default: the built-in A-C chain and limits)");
   cmd->callback([args] { run_replay(*args); });
 }
 

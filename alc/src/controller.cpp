@@ -67,6 +67,8 @@ std::string AlcParameters::validate() const {
     return describe("acl_angular_um_per_m", acl_angular_um_per_m, "must be positive and finite");
   if (!positive_or_inf(learning_window_s))
     return describe("learning_window_s", learning_window_s, "must be positive or inf");
+  if (std::isnan(learning_since_s) || learning_since_s == kInf)
+    return describe("learning_since_s", learning_since_s, "must be a time or -inf");
   if (const std::string why = identification.validate(); !why.empty()) return "identification: " + why;
   return {};
 }
@@ -90,6 +92,11 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
   if (state.prediction.size() != static_cast<Eigen::Index>(output_names_.size()))
     throw std::invalid_argument("controller: saved state has another number of outputs");
   state_ = std::move(state);
+}
+
+double Controller::learning_window_start(double time_s) const {
+  const double trailing = std::isfinite(params_.learning_window_s) ? time_s - params_.learning_window_s : -kInf;
+  return std::max(trailing, params_.learning_since_s);
 }
 
 double Controller::acl_of(std::size_t output) const {
@@ -121,13 +128,13 @@ void Controller::change_phase(Phase to, double time_s, ControllerOutput& out, co
 
 bool Controller::reidentify(double time_s, ControllerOutput& out, const std::string& reason, bool keep_structure) {
   IdentificationOptions options = params_.identification;
-  options.window_start_s = std::isfinite(params_.learning_window_s) ? time_s - params_.learning_window_s : -kInf;
+  options.window_start_s = learning_window_start(time_s);
   // The structure is searched again when the data span has grown enough to tell more about the
   // slow dynamics; otherwise a confirming probe only refits the parameters (much cheaper).
   const double span_s = time_s - std::max(state_.start_time_s, options.window_start_s);
   const bool keep = keep_structure && state_.has_model && span_s < params_.structure_refresh * state_.structure_span_s;
-  FitResult fit = keep ? refit(state_.history, output_names_, state_.probes, options, state_.predictor.model())
-                       : identify(state_.history, output_names_, state_.probes, options);
+  FitResult fit = keep ? refit(state_.history, output_names_, state_.probes, options, state_.predictor.model(), &lag_cache_)
+                       : identify(state_.history, output_names_, state_.probes, options, &lag_cache_);
   if (fit.usable && !keep) state_.structure_span_s = span_s;
   ControllerEvent e;
   e.time_s = time_s;

@@ -25,52 +25,83 @@ std::string format_number(double v) {
   return os.str();
 }
 
-// Lag of one input column with time constant tau after stepping to every history sample, written to
-// `out` (one value per sample). Same arithmetic as ModelPredictor::step, so a model whose poles give
-// exactly this tau continues from these values bit for bit.
-void lag_column(const InputHistory& h, Index col, double ref, double tau, double* out) {
-  const auto n = static_cast<Index>(h.time_s.size());
-  const double u0 = h.inputs(0, col);
-  double held = std::isfinite(u0) ? u0 : ref;
-  double x = held - ref;
-  double last_t = h.time_s[0];
-  double last_dt = -1.0;
-  double a = 0.0;
-  for (Index s = 0; s < n; ++s) {
-    if (s > 0) {
-      const double dt = h.time_s[static_cast<std::size_t>(s)] - last_t;
-      if (dt > 0.0) {
-        if (dt != last_dt) {
-          a = detail::lag_factor(dt, tau);
-          last_dt = dt;
-        }
-        x = detail::lag_step(x, a, held - ref);
-        last_t = h.time_s[static_cast<std::size_t>(s)];
-      }
-      const double u = h.inputs(s, col);
-      if (std::isfinite(u)) held = u;
-    }
-    out[s] = x;
-  }
+// Lags of input columns at every history sample: column `input * taus + k` holds the lag of `input`
+// with time constant taus[k] (columns of inputs not listed stay zero). A LagCache (thermal_model.hpp).
+using LagTable = LagCache;
+
+Index lag_column(const LagTable& t, int input, int k) {
+  return static_cast<Index>(input) * static_cast<Index>(t.taus.size()) + k;
 }
 
-// Lags of input columns at every history sample: column `input * taus + k` holds the lag of `input`
-// with time constant taus[k] (columns of inputs not listed stay zero).
-struct LagTable {
-  Eigen::MatrixXd x;                     // samples x (inputs * taus.size())
-  std::vector<double> taus;              // [s]
-  Index column(int input, int k) const { return static_cast<Index>(input) * static_cast<Index>(taus.size()) + k; }
-};
+// Extends `t` to every sample of `h` (from scratch if it does not describe a prefix of `h` with
+// these reference values, inputs and time constants). Per column, the same arithmetic as
+// ModelPredictor::step, so a model whose poles give exactly these taus continues from the table bit
+// for bit; extending sample by sample and computing at once give the same doubles.
+void extend_lags(LagTable& t, const InputHistory& h, const Eigen::VectorXd& ref, const std::vector<int>& inputs,
+                 const std::vector<double>& taus) {
+  const auto n = static_cast<Index>(h.time_s.size());
+  const auto n_in = static_cast<Index>(h.input_names.size());
+  const auto n_tau = static_cast<Index>(taus.size());
+  const bool prefix = t.samples > 0 && t.samples <= n && t.taus == taus && t.inputs == inputs &&
+                      t.reference.size() == ref.size() && t.reference == ref && t.x.cols() == n_in * n_tau &&
+                      t.first_time_s == h.time_s.front() &&
+                      h.time_s[static_cast<std::size_t>(t.samples - 1)] == t.last_time_s &&
+                      t.last_row.size() == n_in && h.inputs.row(t.samples - 1) == t.last_row;
+  if (!prefix) {
+    t = LagTable{};
+    t.taus = taus;
+    t.inputs = inputs;
+    t.reference = ref;
+    t.held = ref;
+    t.factor = Eigen::VectorXd::Zero(n_tau);
+  }
+  if (n == t.samples) return;
+  if (t.x.rows() < n) {
+    // Grow geometrically: the controller appends a sample at a time.
+    const Index capacity = std::max<Index>({n, 2 * t.x.rows(), 1024});
+    Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(capacity, n_in * n_tau);
+    grown.topRows(t.samples) = t.x.topRows(t.samples);
+    t.x.swap(grown);
+  }
+  Index s = t.samples;
+  if (s == 0) {
+    t.first_time_s = t.last_time_s = h.time_s.front();
+    for (const int i : inputs) {
+      const double u0 = h.inputs(0, i);
+      t.held(i) = std::isfinite(u0) ? u0 : ref(i);
+      for (Index k = 0; k < n_tau; ++k) t.x(0, lag_column(t, i, static_cast<int>(k))) = t.held(i) - ref(i);
+    }
+    s = 1;
+  }
+  for (; s < n; ++s) {
+    const double time = h.time_s[static_cast<std::size_t>(s)];
+    const double dt = time - t.last_time_s;
+    const bool advance = dt > 0.0;
+    if (advance) {
+      if (dt != t.last_dt_s) {
+        for (Index k = 0; k < n_tau; ++k) t.factor(k) = detail::lag_factor(dt, taus[static_cast<std::size_t>(k)]);
+        t.last_dt_s = dt;
+      }
+      t.last_time_s = time;
+    }
+    for (const int i : inputs) {
+      const double u_held = t.held(i) - ref(i);
+      for (Index k = 0; k < n_tau; ++k) {
+        const Index c = lag_column(t, i, static_cast<int>(k));
+        t.x(s, c) = advance ? detail::lag_step(t.x(s - 1, c), t.factor(k), u_held) : t.x(s - 1, c);
+      }
+      const double u = h.inputs(s, i);
+      if (std::isfinite(u)) t.held(i) = u;
+    }
+  }
+  t.samples = n;
+  t.last_row = h.inputs.row(n - 1);
+}
 
 LagTable lag_table(const InputHistory& h, const Eigen::VectorXd& ref, const std::vector<int>& inputs,
-                   std::vector<double> taus) {
+                   const std::vector<double>& taus) {
   LagTable t;
-  t.taus = std::move(taus);
-  t.x = Eigen::MatrixXd::Zero(static_cast<Index>(h.time_s.size()),
-                              static_cast<Index>(h.input_names.size() * t.taus.size()));
-  for (const int i : inputs)
-    for (std::size_t k = 0; k < t.taus.size(); ++k)
-      lag_column(h, i, ref(i), t.taus[k], t.x.col(t.column(i, static_cast<int>(k))).data());
+  extend_lags(t, h, ref, inputs, taus);
   return t;
 }
 
@@ -101,7 +132,7 @@ class OutputData {
     Index c = 1;
     for (const int i : s.inputs) {
       for (const int g : s.poles) {
-        const auto lag = lags_.x.col(lags_.column(i, g));
+        const auto lag = lags_.x.col(lag_column(lags_, i, g));
         for (Index r = 0; r < rows(); ++r) phi(r, c) = lag(row_sample_[static_cast<std::size_t>(r)]);
         ++c;
       }
@@ -225,7 +256,7 @@ OutputSimulation simulate_output(const LagTable& table, const std::vector<Index>
   const auto lags = static_cast<Index>(cols.size());
   out.at_rows.resize(static_cast<Index>(row_sample.size()));
   out.end_lags.resize(lags);
-  const Index last_row = table.x.rows() - 1;
+  const Index last_row = table.samples - 1;
   for (Index c = 0; c < lags; ++c) out.end_lags(c) = table.x(last_row, cols[static_cast<std::size_t>(c)]);
   if (row_sample.empty()) return out;
   const Index first = row_sample.front();
@@ -241,13 +272,13 @@ OutputSimulation simulate_output(const LagTable& table, const std::vector<Index>
 }  // namespace
 
 FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
-                   const std::vector<ProbeRecord>& probes, const IdentificationOptions& options) {
-  return refit(history, output_names, probes, options, ThermalModel{});
+                   const std::vector<ProbeRecord>& probes, const IdentificationOptions& options, LagCache* cache) {
+  return refit(history, output_names, probes, options, ThermalModel{}, cache);
 }
 
 FitResult refit(const InputHistory& history, const std::vector<std::string>& output_names,
                 const std::vector<ProbeRecord>& probes, const IdentificationOptions& options,
-                const ThermalModel& structure) {
+                const ThermalModel& structure, LagCache* cache) {
   FitResult result;
   const auto fail = [&result](std::string why) {
     result.usable = false;
@@ -319,7 +350,10 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
   // Every input, not only the candidates: a kept structure may use an input that is constant now.
   std::vector<int> all_inputs(static_cast<std::size_t>(n_in));
   std::iota(all_inputs.begin(), all_inputs.end(), 0);
-  const LagTable grid_lags = lag_table(history, reference, samples.empty() ? std::vector<int>{} : all_inputs, grid);
+  // A cache passed in is extended by the samples added since the last call instead of recomputed.
+  LagTable local_lags;
+  LagTable& grid_lags = cache ? *cache : local_lags;
+  extend_lags(grid_lags, history, reference, all_inputs, grid);
 
   ThermalModel model;
   model.input_names = history.input_names;
@@ -491,10 +525,10 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
       for (Index k = 0; k < om.poles.size(); ++k) taus.push_back(time_constant_of_pole(om.poles(k), options.base_step_s));
       moved_lags = lag_table(history, reference, s.inputs, taus);
       for (const int i : s.inputs)
-        for (std::size_t k = 0; k < taus.size(); ++k) cols.push_back(moved_lags.column(i, static_cast<int>(k)));
+        for (std::size_t k = 0; k < taus.size(); ++k) cols.push_back(lag_column(moved_lags, i, static_cast<int>(k)));
     } else {
       for (const int i : s.inputs)
-        for (const int g : s.poles) cols.push_back(table.column(i, g));
+        for (const int g : s.poles) cols.push_back(lag_column(table, i, g));
     }
     const OutputSimulation sim = simulate_output(moved ? moved_lags : table, cols, theta, row_sample);
     double y_max = 0.0;
@@ -556,14 +590,10 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
     for (const Eigen::VectorXd& l : end_lags) lag_count += l.size();
     Eigen::VectorXd state(2 + n_in + lag_count);
     state(0) = 1.0;
-    double last_t = history.time_s.front();
-    for (const double t : history.time_s) if (t - last_t > 0.0) last_t = t;
-    state(1) = last_t;
-    for (Index i = 0; i < n_in; ++i) {
-      double held = reference(i);
-      for (Index k = 0; k < n_samples; ++k) if (std::isfinite(history.inputs(k, i))) held = history.inputs(k, i);
-      state(2 + i) = held;
-    }
+    // The grid table has stepped every input over every sample: its clock and held inputs are the
+    // predictor's.
+    state(1) = grid_lags.last_time_s;
+    state.segment(2, n_in) = grid_lags.held;
     Index at = 2 + n_in;
     for (const Eigen::VectorXd& l : end_lags) {
       state.segment(at, l.size()) = l;

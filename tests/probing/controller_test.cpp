@@ -63,6 +63,7 @@ struct Driver {
   Plant plant;
   Controller controller;
   std::vector<ControllerEvent> events;
+  std::vector<FitResult> fits;  // every identification that ran, in order
   int probes = 0;
   double t = 0.0;
   explicit Driver(AlcParameters p)
@@ -72,12 +73,14 @@ struct Driver {
       plant.advance(t);
       auto out = controller.on_sample(t, plant.inputs(t));
       events.insert(events.end(), out.events.begin(), out.events.end());
+      if (out.fit) fits.push_back(*out.fit);
       if (t >= out.next_probe_due_s) {
         if (before_probe) before_probe(t);
         ProbeMeasurement m{t, plant.errors(), {}};
         auto pout = controller.on_probe(m);
         ++probes;
         events.insert(events.end(), pout.events.begin(), pout.events.end());
+        if (pout.fit) fits.push_back(*pout.fit);
       }
     }
   }
@@ -169,6 +172,87 @@ TEST_CASE("controller: the periodic parameter update interval") {
   CHECK(updates[2].time_s == 8 * kHour);
   CHECK(updates[3].time_s == 11 * kHour);
   CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+}
+
+TEST_CASE("controller: a fit that is not usable keeps the previous model and says why") {
+  AlcParameters p = test_parameters();
+  p.learning_window_s = 40 * kMinute;  // CP end at 2 h: the 8 probes from 80 to 115 min
+  p.update_interval_s = 1.5 * kHour;   // 3.5 h: only the 3 h probe is in the window
+  Driver d(p);
+  d.run_until(3 * kHour + 30 * kMinute);
+  REQUIRE(d.of_type(ControllerEvent::Type::ModelUpdate).size() == 1);
+  REQUIRE(d.fits.size() == 1);
+  CHECK(d.fits[0].outputs[0].measurements == 8);
+  const ThermalModel before = d.controller.state().predictor.model();
+  const Eigen::VectorXd state_before = d.controller.state().predictor.state();
+
+  d.run_until(3 * kHour + 31 * kMinute);  // the sample at 3.5 h runs the periodic update
+  const auto rejected = d.of_type(ControllerEvent::Type::ModelRejected);
+  REQUIRE(rejected.size() == 1);
+  CHECK(rejected[0].time_s == 3.5 * kHour);
+  CHECK(rejected[0].reason.find("periodic parameter update") == 0);
+  CHECK(rejected[0].reason.find("E_X0C: only 1 measurements in the window") != std::string::npos);
+  CHECK(rejected[0].reason.find("previous model kept") != std::string::npos);
+  REQUIRE(d.fits.size() == 2);
+  CHECK_FALSE(d.fits[1].usable);
+  CHECK(d.controller.state().rejected_fits == 1);
+  CHECK(d.controller.state().updates == 1);
+  CHECK(d.controller.state().has_model);
+  // The same model, stepped on by one sample: its parameters are untouched and it still predicts.
+  const ThermalModel& after = d.controller.state().predictor.model();
+  REQUIRE(after.outputs.size() == before.outputs.size());
+  for (std::size_t k = 0; k < before.outputs.size(); ++k) {
+    CHECK(after.outputs[k].parameters == before.outputs[k].parameters);
+    CHECK(after.outputs[k].poles == before.outputs[k].poles);
+  }
+  ModelPredictor replayed(before);
+  replayed.set_state(state_before);
+  const Eigen::VectorXd expected = replayed.step(3.5 * kHour, d.plant.inputs(3.5 * kHour));
+  CHECK(d.controller.state().prediction == expected);
+  CHECK_THAT(d.controller.state().prediction[0], Catch::Matchers::WithinAbs(d.plant.errors()[0], 0.5));
+  // A failed periodic update waits for the next interval instead of retrying at every sample.
+  d.run_until(4 * kHour + 50 * kMinute);
+  CHECK(d.of_type(ControllerEvent::Type::ModelRejected).size() == 1);
+}
+
+TEST_CASE("controller: learning_since_s and learning_window_s choose the probes an identification learns from") {
+  const auto cp_fit_measurements = [](AlcParameters p) {
+    Driver d(p);
+    d.run_until(2 * kHour + kMinute);
+    REQUIRE(d.fits.size() == 1);
+    REQUIRE(d.fits[0].usable);
+    CHECK(d.fits[0].outputs[0].measurements == d.fits[0].outputs[1].measurements);
+    return d.fits[0].outputs[0].measurements;
+  };
+  AlcParameters p = test_parameters();
+  CHECK(cp_fit_measurements(p) == 24);  // CP probes at 0, 5, ..., 115 min
+  p.learning_since_s = 1 * kHour;
+  CHECK(cp_fit_measurements(p) == 12);  // 60 ... 115 min
+  p.learning_window_s = 30 * kMinute;
+  CHECK(cp_fit_measurements(p) == 6);   // the later of the two starts: 90 ... 115 min
+  p.learning_since_s = -kInf;
+  p.learning_window_s = 50 * kMinute;
+  CHECK(cp_fit_measurements(p) == 10);  // 70 ... 115 min
+
+  SECTION("a start after the data: CP is extended until enough probes exist since then") {
+    AlcParameters q = test_parameters();
+    q.learning_since_s = 1.75 * kHour;  // 105, 110, 115 min at CP end: too few
+    Driver d(q);
+    d.run_until(2 * kHour + 20 * kMinute);
+    CHECK(d.controller.phase() == Phase::PostCalibration);
+    const auto rejected = d.of_type(ControllerEvent::Type::ModelRejected);
+    REQUIRE(rejected.size() == 3);  // at 2 h (3 probes, then 4 after its probe), 2 h 05 (5); 2 h 10 has 6
+    CHECK(rejected[0].reason.find("no model yet") != std::string::npos);
+    REQUIRE(d.fits.back().usable);
+    CHECK(d.fits.back().outputs[0].measurements == 6);
+  }
+  SECTION("validation") {
+    AlcParameters q = test_parameters();
+    q.learning_since_s = kInf;
+    CHECK(q.validate().find("learning_since_s") == 0);
+    q.learning_since_s = std::nan("");
+    CHECK(q.validate().find("learning_since_s") == 0);
+  }
 }
 
 TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the ACL") {

@@ -39,6 +39,8 @@ struct AlcParameters {
   double acl_linear_um = 5.0;              // [µm] action control limit of linear errors
   double acl_angular_um_per_m = 15.0;      // [µm/m] action control limit of angular errors
   double learning_window_s = kInf;         // [s] re-identify on the data of this last span; inf: all data
+  double learning_since_s = -kInf;         // [s] re-identify only on probes at or after this time (a point
+                                           //     in time such as a repair or a new fixture); -inf: all data
   IdentificationOptions identification;    // window_start_s is set by the controller
 
   // Empty if valid, else the first violated constraint naming the field and value.
@@ -120,6 +122,9 @@ class Controller {
   const std::vector<std::string>& output_names() const { return output_names_; }
   Phase phase() const { return state_.phase; }
   double acl_of(std::size_t output) const;
+  // [s] the first probe time that an identification at `time_s` learns from (learning_since_s and
+  // learning_window_s together); -inf: all probes.
+  double learning_window_start(double time_s) const;
 
  private:
   void advance(double time_s, ControllerOutput& out);
@@ -133,6 +138,9 @@ class Controller {
   std::vector<ErrorKind> kinds_;
   AlcParameters params_;
   ControllerState state_;
+  // The grid lags of state_.history, extended by each identification instead of recomputed: derived
+  // from the state, not part of it (a restored controller rebuilds it and decides the same, bit for bit).
+  LagCache lag_cache_;
 };
 
 }  // namespace alc

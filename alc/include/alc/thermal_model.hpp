@@ -127,12 +127,36 @@ struct FitResult {
   Eigen::VectorXd predictor_state;
 };
 
+// The lags of every input at the time constants of the pole grid after every sample of an input
+// history: what identify() and refit() compute first, O(samples x inputs x grid) each time. A caller
+// that identifies again and again on a history that only grows (the controller) keeps one LagCache
+// and passes it in; each call then extends it by the samples added since the last one. Derived data,
+// not state: it is rebuilt when it does not match the history (another first sample, reference, grid
+// or a history that is not an extension of the cached one), and an empty cache gives the same fits
+// bit for bit. Fields are read and written by identify()/refit() only.
+struct LagCache {
+  std::vector<double> taus;                  // [s] time constants of the columns
+  std::vector<int> inputs;                   // history columns computed (columns of others stay zero)
+  Eigen::VectorXd reference;                 // the inputs' reference values (the lags of u - reference)
+  Eigen::MatrixXd x;                         // capacity x (inputs * taus): column input * taus + k; rows
+                                             // [0, samples) are valid
+  Eigen::Index samples = 0;                  // history samples covered
+  double first_time_s = 0.0;                 // [s] time of sample 0
+  double last_time_s = 0.0;                  // [s] time of the last sample that advanced the lags
+  double last_dt_s = -1.0;                   // [s] spacing that `factor` was computed for
+  Eigen::VectorXd held;                      // input held after the last sample (reference at the start)
+  Eigen::VectorXd factor;                    // exp(-last_dt_s / tau) per time constant
+  Eigen::RowVectorXd last_row;               // inputs of the last sample covered (to recognise the history)
+};
+
 // Time constant [s] of a discrete pole at `base_step_s` and back.
 double time_constant_of_pole(double pole, double base_step_s);
 double pole_of_time_constant(double tau_s, double base_step_s);
 
+// `cache` (optional) keeps the grid lags between calls on a growing history (see LagCache).
 FitResult identify(const InputHistory& history, const std::vector<std::string>& output_names,
-                   const std::vector<ProbeRecord>& probes, const IdentificationOptions& options);
+                   const std::vector<ProbeRecord>& probes, const IdentificationOptions& options,
+                   LagCache* cache = nullptr);
 
 // identify() without the structure search for the outputs that `structure` has (same name, same
 // input names and base step): their inputs and poles are kept and only the parameters are fitted
@@ -140,7 +164,7 @@ FitResult identify(const InputHistory& history, const std::vector<std::string>& 
 // `structure` lacks get the full search. Same usability rules and summary as identify().
 FitResult refit(const InputHistory& history, const std::vector<std::string>& output_names,
                 const std::vector<ProbeRecord>& probes, const IdentificationOptions& options,
-                const ThermalModel& structure);
+                const ThermalModel& structure, LagCache* cache = nullptr);
 
 // Runs a model forward over samples. Feed every input sample in time order.
 class ModelPredictor {
