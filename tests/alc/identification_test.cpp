@@ -1,6 +1,7 @@
 // Identification of the fixed-pole ARX form: parameter recovery, irregular probes, order and input
 // selection, degenerate data, robust refinement, output-error route.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -210,6 +211,13 @@ TEST_CASE("identify: 16 temperatures and 80 measurements do not overfit") {
   INFO(selected.message);
   REQUIRE(selected.usable);
   CHECK(selected.model.outputs[0].inputs.size() <= 6);
+  // The inputs the errors depend on are among the chosen (the extra sensors mix T_ENV, so one of them
+  // may come along as a near-copy, but none of the 13 replaces a true input).
+  const std::vector<int>& chosen = selected.model.outputs[0].inputs;
+  for (const int true_input : truth.outputs[0].inputs) {
+    INFO("true input " << h.input_names[static_cast<std::size_t>(true_input)]);
+    CHECK(std::find(chosen.begin(), chosen.end(), true_input) != chosen.end());
+  }
   const double rmse_selected = held_out_rmse(selected);
   INFO("held-out RMSE " << rmse_selected << " µm, signal peak " << signal << " µm, inputs "
                         << selected.model.outputs[0].inputs.size());
@@ -495,4 +503,78 @@ TEST_CASE("refit: time constants off the grid (output-error route) are kept exac
   ModelPredictor replayed(again.model);
   for (Eigen::Index k = 0; k < h.inputs.rows(); ++k) replayed.step(h.time_s[static_cast<std::size_t>(k)], h.inputs.row(k).transpose());
   CHECK(replayed.state() == again.predictor_state);
+}
+
+namespace {
+
+InputHistory head_of(const InputHistory& h, Eigen::Index n) {
+  InputHistory p;
+  p.input_names = h.input_names;
+  p.time_s.assign(h.time_s.begin(), h.time_s.begin() + n);
+  p.inputs = h.inputs.topRows(n);
+  return p;
+}
+
+// Bit-for-bit equality of two fits: every output's structure and parameters, and the predictor state.
+void require_same_fit(const FitResult& a, const FitResult& b) {
+  REQUIRE(a.usable == b.usable);
+  REQUIRE(a.model.outputs.size() == b.model.outputs.size());
+  for (std::size_t k = 0; k < a.model.outputs.size(); ++k) {
+    CHECK(a.model.outputs[k].inputs == b.model.outputs[k].inputs);
+    CHECK(a.model.outputs[k].poles == b.model.outputs[k].poles);
+    CHECK(a.model.outputs[k].parameters == b.model.outputs[k].parameters);
+  }
+  CHECK(a.predictor_state == b.predictor_state);
+}
+
+}  // namespace
+
+TEST_CASE("identify: a LagCache extended over a growing history gives the fits of a fresh computation, bit for bit") {
+  std::mt19937_64 rng(2024);
+  const InputHistory h = test::make_history(rng, 2 * 86400.0, 60.0, 2);
+  const ThermalModel truth = test::truth_model(
+      h, {test::output_model("E_X0C", {0, 1}, {grid_tau(2), grid_tau(5)}, {1.0, 3.0, -1.5, 0.002, 0.001}),
+          test::output_model("E_A0C", {3}, {grid_tau(3)}, {-2.0, 6.0})});
+  const Eigen::MatrixXd y = test::simulate(truth, h);
+  const std::vector<ProbeRecord> all = test::probes_at(h, y, test::probe_samples(h, 6.5 * 3600.0, 300.0, 2 * 3600.0), &rng, 0.3);
+  const std::vector<std::string> names{"E_X0C", "E_A0C"};
+  const IdentificationOptions options;
+
+  LagCache cache;
+  ThermalModel structure;
+  for (const Eigen::Index n : {Eigen::Index{400}, Eigen::Index{401}, Eigen::Index{1500}, Eigen::Index{2000}, h.inputs.rows()}) {
+    INFO("samples " << n);
+    const InputHistory part = head_of(h, n);
+    std::vector<ProbeRecord> probes;
+    for (const ProbeRecord& p : all)
+      if (p.time_s <= part.time_s.back()) probes.push_back(p);
+    const FitResult cached = identify(part, names, probes, options, &cache);
+    CHECK(cache.samples == n);
+    const FitResult fresh = identify(part, names, probes, options);
+    REQUIRE(fresh.usable);
+    require_same_fit(cached, fresh);
+    if (!structure.empty()) require_same_fit(refit(part, names, probes, options, structure, &cache),
+                                             refit(part, names, probes, options, structure));
+    structure = fresh.model;
+  }
+
+  SECTION("a history that is not an extension of the cached one is computed afresh") {
+    const InputHistory shorter = head_of(h, 1000);
+    std::vector<ProbeRecord> probes;
+    for (const ProbeRecord& p : all)
+      if (p.time_s <= shorter.time_s.back()) probes.push_back(p);
+    require_same_fit(identify(shorter, names, probes, options, &cache), identify(shorter, names, probes, options));
+    CHECK(cache.samples == 1000);
+    InputHistory other = h;
+    other.inputs(other.inputs.rows() - 1, 0) += 0.5;  // another last sample
+    require_same_fit(identify(other, names, all, options, &cache), identify(other, names, all, options));
+    InputHistory later = h;
+    for (double& t : later.time_s) t += 60.0;  // another first sample time
+    std::vector<ProbeRecord> shifted = all;
+    for (ProbeRecord& p : shifted) p.time_s += 60.0;
+    require_same_fit(identify(later, names, shifted, options, &cache), identify(later, names, shifted, options));
+    IdentificationOptions other_grid = options;
+    other_grid.tau_max_s = 36000.0;  // other time constants
+    require_same_fit(identify(h, names, all, other_grid, &cache), identify(h, names, all, other_grid));
+  }
 }

@@ -4,6 +4,7 @@
 
 #include "../cli_support.hpp"
 #include <filesystem>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -122,4 +123,62 @@ TEST_CASE("alc replay --residuals writes measured and predicted columns after CP
   std::string first;
   std::getline(in, first);
   CHECK(first.rfind("23400,", 0) == 0);  // the first recorded measurement at the end of CP (6.5 h)
+}
+
+TEST_CASE("alc replay --case all prints the Tab. 3 table whose rows are the single cases' figures") {
+  const Run table = alc("replay --case all");
+  INFO(table.err);
+  REQUIRE(table.exit_code == 0);
+  const Run json = alc("replay --case all --json");
+  REQUIRE(json.exit_code == 0);
+  const auto all = indicators_of(json.out);
+  REQUIRE(all.is_object());
+  for (const char* c : {"A", "B", "C", "D"}) REQUIRE(all.contains(c));
+  CHECK(all.size() == 4);
+  // --case all gives each case what --case X gives on its own.
+  const Run b = alc("replay --case B --json");
+  REQUIRE(b.exit_code == 0);
+  CHECK(all["B"] == indicators_of(b.out));
+
+  const std::size_t at = table.out.find("\ncase ");
+  REQUIRE(at != std::string::npos);
+  std::istringstream rows(table.out.substr(at + 1));
+  std::string header;
+  std::getline(rows, header);
+  for (const char* column : {"SMAPE[%]", "RMSE[µm]", "PV[%]", "P99[µm]", "Pd[%]", "M", "NG", "upd", "baseline P99"})
+    CHECK_THAT(header, Catch::Matchers::Contains(column));
+  const auto mean_of = [](const nlohmann::json& outputs, const char* field, bool linear_only) {
+    double s = 0.0;
+    int n = 0;
+    for (auto it = outputs.begin(); it != outputs.end(); ++it) {
+      const char k = it.key()[2];  // E_A…, E_B…, E_C… are angular
+      if (linear_only && (k == 'A' || k == 'B' || k == 'C')) continue;
+      s += it.value()[field].get<double>();
+      ++n;
+    }
+    return s / n;
+  };
+  const auto two = [](double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f", v);
+    return std::string(buf);
+  };
+  for (const char* c : {"A", "B", "C", "D"}) {
+    std::string name, smape, rmse, pv, p99, p99ang, pd, baseline_p99;
+    int m = 0, ng = 0, upd = 0;
+    REQUIRE(rows >> name >> smape >> rmse >> pv >> p99 >> p99ang >> pd >> m >> ng >> upd >> baseline_p99);
+    std::string rest;
+    std::getline(rows, rest);
+    INFO("row " << name);
+    CHECK(name == c);
+    const auto& j = all[c];
+    CHECK(smape == two(mean_of(j["outputs"], "SMAPE", false)));
+    CHECK(rmse == two(mean_of(j["outputs"], "RMSE", false)));
+    CHECK(p99 == two(mean_of(j["outputs"], "P99", true)));
+    CHECK(baseline_p99 == two(mean_of(j["baseline"]["outputs"], "P99", true)));
+    CHECK(pd == two(j["Pd"].get<double>()));
+    CHECK(m == j["M"].get<int>());
+    CHECK(ng == j["ng_phases"].get<int>());
+    CHECK(upd == j["updates"].get<int>());
+  }
 }

@@ -132,3 +132,32 @@ TEST_CASE("replay: stopping and resuming from the saved state gives the same res
     CHECK(resumed.Pd == whole.Pd);
   }
 }
+
+TEST_CASE("replay: the static baseline is fitted once on the CP measurements and never updated") {
+  // A step at 12 h that ALC re-learns; the baseline must not (it would if it were refitted).
+  const Scenario s = synthetic(5, 8.0, 12.0);
+  ReplaySession session(s, parameters());
+  session.run();
+  const ReplayState st = session.state();
+  REQUIRE(st.baseline_fitted);
+  REQUIRE(st.controller.updates >= 2);
+  const double cp_end = st.controller.cp_end_s;
+  REQUIRE(cp_end == 3 * kHour);
+  std::vector<ProbeRecord> cp_probes;
+  for (const ProbeRecord& p : st.controller.probes)
+    if (p.time_s <= cp_end) cp_probes.push_back(p);
+  REQUIRE(cp_probes.size() == 36);  // 0, 5, ..., 175 min
+  // What a fit on the CP probes alone predicts, at every evaluated measurement.
+  const StaticRegression expected = fit_static_regression(st.controller.history, s.output_names, cp_probes).model;
+  REQUIRE(!st.eval_time_s.empty());
+  for (std::size_t i = 0; i < st.eval_time_s.size(); ++i) {
+    const auto row = static_cast<Eigen::Index>(std::lround(st.eval_time_s[i] / kMinute));
+    REQUIRE(s.time_s[static_cast<std::size_t>(row)] == st.eval_time_s[i]);
+    INFO("t = " << st.eval_time_s[i] << " s");
+    CHECK(st.eval_baseline[i] == expected.predict(s.inputs.row(row).transpose()));
+  }
+  // After the step, the baseline keeps its error while ALC learns it.
+  const ReplayReport r = session.report();
+  CHECK(r.baseline[0].P99 > 4.0);
+  CHECK(r.outputs[0].P99 < r.baseline[0].P99);
+}
