@@ -63,8 +63,8 @@ TEST_CASE("alc --version prints the version and exits 0") {
 TEST_CASE("alc replay --help describes its options") {
   check_help("replay --help",
              {"file", "--case", "--seed", "--cp", "--cp-interval", "--interval", "--ng-interval", "--ng-meas",
-              "--update", "--acl-lin", "--acl-ang", "--window", "--half-life", "--method", "--max-order",
-              "--structure-refresh", "--no-refit", "--db", "--stop-at", "--resume", "--json", "--residuals", "--nc-out", "--dialect",
+              "--update", "--acl-lin", "--acl-ang", "--window", "--since", "--half-life", "--method", "--max-order",
+              "--structure-refresh", "--no-refit", "--no-confirm", "--kill-at", "--db", "--stop-at", "--resume", "--json", "--residuals", "--nc-out", "--dialect",
               "--machine"});
 }
 
@@ -80,10 +80,11 @@ TEST_CASE("alc db --help lists its subcommands, and each subcommand its options"
   check_help("db check --help", {"FILE"});
   check_help("db export --help", {"FILE", "--table", "--out"});
   check_help("db bench --help", {"--samples", "--inputs", "--batch", "--dir"});
+  check_help("db path --help", {});
 }
 
 TEST_CASE("alc nc --help describes its options") {
-  check_help("nc --help", {"--dialect", "--machine", "--in", "--sink", "--spool-dir", "--port"});
+  check_help("nc --help", {"--dialect", "--machine", "--in", "--in-force", "--sink", "--spool-dir", "--port"});
 }
 
 TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message on stderr") {
@@ -98,6 +99,8 @@ TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message o
   check_usage_error("replay --case C --max-order 1.5", "--max-order");
   check_usage_error("replay --case C --seed many", "--seed");
   check_usage_error("replay --case C --cp", "--cp");
+  check_usage_error("replay --case C --since inf", "--since: 'inf' is not a finite time");
+  check_usage_error("replay --case C --since -2", "--since");
   check_usage_error("bench --repeat x", "--repeat");
   check_usage_error("db", "A subcommand is required");
   check_usage_error("db info", "FILE is required");
