@@ -294,14 +294,22 @@ TEST_CASE("identify: degenerate data gives no NaN and says why it is not usable"
     const Eigen::MatrixXd pred = test::simulate(fit.model, twin);
     REQUIRE(pred.allFinite());
     CHECK((pred.col(0) - y.col(0)).cwiseAbs().maxCoeff() < 0.05);
+    // The summary says how ill-conditioned the regressor is: the copy makes it singular.
+    const FitResult plain = identify(h, {"E_X0C"}, probes, o);
+    REQUIRE(plain.usable);
+    INFO("condition " << fit.outputs[0].condition << " with the copy, " << plain.outputs[0].condition << " without");
+    CHECK(std::isfinite(plain.outputs[0].condition));
+    CHECK(fit.outputs[0].condition > 1e6 * plain.outputs[0].condition);
   }
   SECTION("a fit that would extrapolate wildly between the probes is rejected") {
     IdentificationOptions o;
     o.output_limit_factor = 1.0;  // the truth itself peaks between the probes above the largest probe
+    o.robust_scale_lin = 0.01;    // and the floor of the bound (20 robust scales) stays below it
     std::vector<ProbeRecord> sparse;
     for (std::size_t j = 0; j < probes.size(); j += 12) sparse.push_back(probes[j]);
     const FitResult fit = identify(h, {"E_X0C"}, sparse, o);
-    if (!fit.usable) CHECK_THAT(fit.message, Catch::Matchers::Contains("beyond the bound"));
+    REQUIRE_FALSE(fit.usable);
+    CHECK_THAT(fit.message, Catch::Matchers::Contains("beyond the bound"));
     for (const OutputModel& m : fit.model.outputs) CHECK(m.parameters.allFinite());
   }
   SECTION("no history, invalid options, wrong sizes") {
