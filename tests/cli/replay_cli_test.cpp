@@ -34,12 +34,24 @@ TEST_CASE("alc replay --json has the documented shape") {
   REQUIRE(r.exit_code == 0);
   const auto j = indicators_of(r.out);
   for (const char* key : {"outputs", "Pd", "M", "ng_phases", "updates", "baseline"}) CHECK(j.contains(key));
+  CHECK(j["Pd"].is_number_float());
+  CHECK(j["Pd"].get<double>() > 90.0);
+  CHECK(j["Pd"].get<double>() < 100.0);
+  for (const char* key : {"M", "ng_phases", "updates"}) CHECK(j[key].is_number_integer());
+  CHECK(j["M"].get<int>() > 78);  // 6.5 h of CP at 5 min alone
+  CHECK(j["outputs"].size() == 7);
   for (const char* e : {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C"}) {
     REQUIRE(j["outputs"].contains(e));
     for (const char* f : {"PV", "RMSE", "P99", "SMAPE", "P99_uncompensated"}) {
-      CHECK(j["outputs"][e].contains(f));
-      CHECK(j["baseline"]["outputs"][e].contains(f));
+      INFO(e << "." << f);
+      REQUIRE(j["outputs"][e].contains(f));
+      REQUIRE(j["baseline"]["outputs"][e].contains(f));
+      CHECK(j["outputs"][e][f].is_number());
+      CHECK(j["outputs"][e][f].get<double>() >= 0.0);
+      CHECK(j["baseline"]["outputs"][e][f].is_number());
     }
+    CHECK(j["outputs"][e]["SMAPE"].get<double>() <= 100.0);
+    CHECK(j["outputs"][e]["P99"].get<double>() < j["outputs"][e]["P99_uncompensated"].get<double>());
   }
 }
 
