@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "commands.hpp"
+#include "nc_interface/machine_config.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/replay_history.hpp"
 #include "storage/history_writer.hpp"
@@ -56,6 +57,9 @@ Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::fi
   AlcParameters full;
   full.structure_refresh = 1.0;  // the baseline: the structure searched at every update
   t.full_search_s = best_replay(scenario, full, repeat).first;
+  // What `alc replay --db` records without --machine: with every prediction the axis offsets of the
+  // default machine chain (kinematics per sample), so the db/plain ratio is that of the real command.
+  const kinematics::MachineChain chain = nc::MachineConfig{}.chain;
   for (int i = 0; i < repeat; ++i) {
     const auto db = dir / ("bench-" + std::to_string(i) + ".sqlite");
     const double start = now_s();
@@ -65,9 +69,11 @@ Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::fi
       r.source = "bench";
       r.input_names = scenario.input_names;
       r.output_names = scenario.output_names;
+      r.offset_names = scenarios::HistoryRecorder::offset_names(chain, scenario.output_names);
       const auto run = writer.begin_run(r);
       scenarios::ReplaySession session(scenario, AlcParameters{});
       scenarios::HistoryRecorder recorder(writer, run, session.controller());
+      recorder.record_offsets(chain, scenario.output_names);
       recorder.save_snapshot(session);
       session.run(kInf, &recorder);
       recorder.save_snapshot(session);

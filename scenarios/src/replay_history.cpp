@@ -183,6 +183,23 @@ ControllerState decode_controller(Decoder& d) {
 
 std::vector<double> to_std(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
+// Whether some output is one of the seven C-axis location errors (then offsets can be derived).
+bool maps_any_error(const std::vector<std::string>& output_names) {
+  for (const auto& name : output_names)
+    if (kinematics::location_error_field(name) >= 0) return true;
+  return false;
+}
+
+// The phase a probe was taken in. The observer sees the probe after the controller handled it, when
+// a phase change the probe caused (a breach: Post-CP -> NG; the last NG probe: NG -> Post-CP; the
+// probe that ends CP) has already happened. Every phase change is a PhaseChange event of the cycle
+// that made it (Controller::change_phase), so the first one's `from` is the phase at probe time.
+Phase phase_at_probe(const ControllerOutput& out, Phase now) {
+  for (const auto& e : out.events)
+    if (e.type == ControllerEvent::Type::PhaseChange) return e.from;
+  return now;
+}
+
 }  // namespace
 
 std::string encode_replay_state(const ReplayState& s) {
@@ -274,9 +291,7 @@ void HistoryRecorder::on_sample(std::size_t row, double time_s, const Eigen::Vec
 }
 
 void HistoryRecorder::record_offsets(const kinematics::MachineChain& chain, std::vector<std::string> output_names) {
-  bool maps = false;
-  for (const auto& name : output_names) maps = maps || kinematics::location_error_field(name) >= 0;
-  if (!maps) return;
+  if (!maps_any_error(output_names)) return;
   chain_ = chain;
   output_names_ = std::move(output_names);
 }
@@ -285,11 +300,16 @@ std::vector<std::string> HistoryRecorder::offset_names(const kinematics::Machine
   return {"X_um", "Y_um", "Z_um", std::string(1, chain.tilt.name) + "_urad", std::string(1, chain.table.name) + "_urad"};
 }
 
+std::vector<std::string> HistoryRecorder::offset_names(const kinematics::MachineChain& chain,
+                                                       const std::vector<std::string>& output_names) {
+  return maps_any_error(output_names) ? offset_names(chain) : std::vector<std::string>{};
+}
+
 void HistoryRecorder::on_probe(std::size_t, const ProbeMeasurement& probe, const ControllerOutput& out) {
   storage::ProbeMeasurementRecord r;
   r.run_id = run_;
   r.time_s = probe.time_s;
-  r.phase = std::string(to_string(controller_.phase()));
+  r.phase = std::string(to_string(phase_at_probe(out, controller_.phase())));
   r.measured = to_std(probe.measured);
   r.compensation = probe.compensation.size() ? to_std(probe.compensation)
                                              : std::vector<double>(static_cast<std::size_t>(probe.measured.size()), 0.0);
@@ -307,11 +327,14 @@ void HistoryRecorder::save_snapshot(const ReplaySession& session) {
   snap.is_json = false;
   snap.payload = encode_replay_state(state);
   writer_.save_snapshot(snap);
-  next_snapshot_s_ = (state.controller.started ? state.controller.now_s : 0.0) + snapshot_every_s_;
+  // Before the first sample the start time is not known yet: on_row_done() counts from it then.
+  next_snapshot_s_ = state.controller.started ? state.controller.now_s + snapshot_every_s_ : -kInf;
 }
 
 void HistoryRecorder::on_row_done(const ReplaySession& session) {
   const ControllerState& c = session.controller().state();
+  // The first snapshot of this recorder falls due `snapshot_every_s_` after the run's first sample;
+  // a recorder of a resumed run past that point saves one after its first row.
   if (next_snapshot_s_ == -kInf) next_snapshot_s_ = c.start_time_s + snapshot_every_s_;
   if (c.now_s >= next_snapshot_s_) save_snapshot(session);
 }

@@ -99,7 +99,7 @@ CREATE TABLE controller_snapshots (
 CREATE INDEX controller_snapshots_by_run ON controller_snapshots (run_id, time_s);
 )sql";
 
-// Version 2: the NC commands emitted and whether the sink took them.
+// Version 2: the NC commands emitted and the safety gate's verdict on each (accepted, message).
 constexpr std::string_view kSchemaV2 = R"sql(
 CREATE TABLE nc_commands (
   nc_command_id  INTEGER PRIMARY KEY,

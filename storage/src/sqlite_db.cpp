@@ -382,7 +382,8 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
       throw StorageError(StorageErrorKind::ReadOnly, file,
                          "directory '" + parent.string() + "' is not writable (the WAL journal lives beside the file)");
     if (::access(file.c_str(), W_OK) != 0)
-      throw StorageError(StorageErrorKind::ReadOnly, file, "the file is read-only");
+      throw StorageError(StorageErrorKind::ReadOnly, file,
+                         "the file is read-only (no write permission for this user); left untouched");
   }
 
   int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;

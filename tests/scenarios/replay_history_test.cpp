@@ -1,34 +1,59 @@
-// The history of a replay: the offsets stored with each prediction are the ones that cancel it.
+// The history of a replay: the offsets stored with each prediction are the ones that cancel it;
+// each probe is stored with the phase it was taken in; NC commands with the safety gate's verdict.
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
 #include <filesystem>
 #include <limits>
+#include <map>
+#include <optional>
+#include <random>
 
 #include "scenarios/load_cases.hpp"
 #include "scenarios/replay_history.hpp"
+#include "scenarios/replay_nc.hpp"
+#include "nc_interface/jsonl.hpp"
 #include "storage/history_reader.hpp"
 
 using namespace alc;
 using namespace alc::scenarios;
 
+namespace {
+
+// A fresh directory under the system temp dir, removed with its contents at scope exit.
+struct TempDir {
+  std::filesystem::path path = std::filesystem::temp_directory_path() /
+                               ("alc_replay_history_test_" + std::to_string(::getpid()) + "_" +
+                                std::to_string(std::random_device{}()));
+  TempDir() { std::filesystem::create_directories(path); }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+// Begins a run of `sc` in `writer` with offsets of `chain` as `alc replay --db` records them.
+storage::RunId begin_run(storage::HistoryWriter& writer, const Scenario& sc, const kinematics::MachineChain& chain) {
+  storage::RunRecord r;
+  r.source = "test";
+  r.input_names = sc.input_names;
+  r.output_names = sc.output_names;
+  r.offset_names = HistoryRecorder::offset_names(chain, sc.output_names);
+  return writer.begin_run(r);
+}
+
+}  // namespace
+
 TEST_CASE("replay history: every prediction is stored with the axis offsets that cancel it") {
-  const auto dir = std::filesystem::temp_directory_path() / ("alc_replay_history_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const auto file = dir / "offsets.sqlite";
-  std::filesystem::remove(file);
+  const TempDir dir;
+  const auto file = dir.path / "offsets.sqlite";
   const auto simulated = simulate_case("A");
   const Scenario& sc = simulated.scenario;
   const auto chain = kinematics::MachineChain::bc_trunnion();  // not the default: the names follow the chain
   storage::RunId run = 0;
   {
     storage::HistoryWriter writer(file);
-    storage::RunRecord r;
-    r.source = "A";
-    r.input_names = sc.input_names;
-    r.output_names = sc.output_names;
-    r.offset_names = HistoryRecorder::offset_names(chain);
-    run = writer.begin_run(r);
+    run = begin_run(writer, sc, chain);
     ReplaySession session(sc, AlcParameters{});
     HistoryRecorder recorder(writer, run, session.controller());
     recorder.record_offsets(chain, sc.output_names);
@@ -54,7 +79,139 @@ TEST_CASE("replay history: every prediction is stored with the axis offsets that
     nonzero += std::abs(p.offsets[0]) > 1.0 ? 1 : 0;
   }
   CHECK(nonzero > 5);  // after CP (6.5 h) the model compensates micrometres
-  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("replay history: a run's offset channels exist exactly when some output is a C-axis error") {
+  const auto chain = kinematics::MachineChain::ac_trunnion();
+  CHECK(HistoryRecorder::offset_names(chain, {"T_X", "E_Z0T"}) == HistoryRecorder::offset_names(chain));
+  CHECK(HistoryRecorder::offset_names(chain, {"E_X1", "E_Z2"}).empty());  // S16: no offsets to derive
+  // A spindle recording is recorded with no offset channels and empty offsets (the writer checks the
+  // count of every vector against the run's channels).
+  const Scenario s16 = simulate_case("S16").scenario;
+  const TempDir dir;
+  storage::HistoryWriter writer(dir.path / "s16.sqlite");
+  const storage::RunId run = begin_run(writer, s16, chain);
+  ReplaySession session(s16, AlcParameters{});
+  HistoryRecorder recorder(writer, run, session.controller());
+  recorder.record_offsets(chain, s16.output_names);
+  session.run(s16.time_s.front() + 600.0, &recorder);
+  writer.commit();
+  const auto predictions = storage::HistoryReader(dir.path / "s16.sqlite").predictions(run);
+  REQUIRE_FALSE(predictions.empty());
+  CHECK(predictions.front().offsets.empty());
+}
+
+namespace {
+
+// Forwards to the history recorder and notes, for every probe, the controller's phase when the probe
+// was taken: the phase after the row's sample, before the controller handles the probe.
+struct PhaseAtProbe : ReplayObserver {
+  const Controller& controller;
+  ReplayObserver& next;
+  Phase before_probe = Phase::Calibration;
+  std::vector<Phase> phases;
+  PhaseAtProbe(const Controller& c, ReplayObserver& n) : controller(c), next(n) {}
+  void on_sample(std::size_t row, double t, const Eigen::VectorXd& u, const ControllerOutput& out) override {
+    before_probe = controller.phase();
+    next.on_sample(row, t, u, out);
+  }
+  void on_probe(std::size_t row, const ProbeMeasurement& p, const ControllerOutput& out) override {
+    phases.push_back(before_probe);
+    next.on_probe(row, p, out);
+  }
+  void on_row_done(const ReplaySession& session) override { next.on_row_done(session); }
+};
+
+}  // namespace
+
+TEST_CASE("replay history: a probe is stored with the phase it was taken in, also when it changes the phase") {
+  // Case A with a step of 20 µm in E_X0C from 12 h on: the model cannot know it, so the first
+  // Post-CP probe after it breaches the ACL (Post-CP -> NG) and the NG burst ends with NG -> Post-CP.
+  Scenario sc = simulate_case("A").scenario;
+  const auto x = static_cast<Eigen::Index>(sc.output_index("E_X0C"));
+  for (std::size_t k = 0; k < sc.samples(); ++k)
+    if (sc.time_s[k] >= sc.time_s.front() + 12 * 3600.0) sc.outputs(static_cast<Eigen::Index>(k), x) += 20.0;
+  const TempDir dir;
+  const auto file = dir.path / "phases.sqlite";
+  storage::RunId run = 0;
+  std::vector<Phase> expected;
+  {
+    storage::HistoryWriter writer(file);
+    const auto chain = kinematics::MachineChain::ac_trunnion();
+    run = begin_run(writer, sc, chain);
+    ReplaySession session(sc, AlcParameters{});
+    HistoryRecorder recorder(writer, run, session.controller());
+    recorder.record_offsets(chain, sc.output_names);
+    PhaseAtProbe tap(session.controller(), recorder);
+    session.run(sc.time_s.front() + 24 * 3600.0, &tap);
+    writer.end_run(run, storage::RunStatus::Stopped);
+    expected = tap.phases;
+  }
+  const storage::HistoryReader reader(file);
+  const auto probes = reader.probe_measurements(run);
+  REQUIRE(probes.size() == expected.size());
+  std::map<double, std::string> phase_of;  // probe time -> stored phase
+  for (std::size_t i = 0; i < probes.size(); ++i) {
+    INFO("probe " << i << " at t = " << probes[i].time_s << " s");
+    CHECK(probes[i].phase == to_string(expected[i]));
+    phase_of[probes[i].time_s] = probes[i].phase;
+  }
+  int breaches = 0, ng_ends = 0;
+  for (const auto& change : reader.phase_changes(run)) {
+    INFO("phase change at t = " << change.time_s << " s: " << change.from_phase << " -> " << change.to_phase);
+    if (change.from_phase == "Post-CP" && change.to_phase == "NG") {
+      ++breaches;
+      REQUIRE(phase_of.count(change.time_s) == 1);
+      CHECK(phase_of[change.time_s] == "Post-CP");  // the breaching probe, not "NG"
+    }
+    if (change.from_phase == "NG" && change.to_phase == "Post-CP") {
+      ++ng_ends;
+      REQUIRE(phase_of.count(change.time_s) == 1);
+      CHECK(phase_of[change.time_s] == "NG");  // the last NG probe, not "Post-CP"
+    }
+  }
+  CHECK(breaches >= 1);
+  CHECK(ng_ends >= 1);
+}
+
+TEST_CASE("replay history: NC commands are stored with the safety gate's verdict before they reach the sink") {
+  // Limits so tight that the first model's offsets are refused: accepted = 0 with the gate's reason.
+  const Scenario sc = simulate_case("A").scenario;
+  NcObserverOptions options;
+  options.limits.max_offset.x_mm = 0.002;
+  NcCommandObserver nc_observer(sc.output_names, options);
+  const TempDir dir;
+  const auto file = dir.path / "nc.sqlite";
+  storage::RunId run = 0;
+  {
+    storage::HistoryWriter writer(file);
+    run = begin_run(writer, sc, options.chain);
+    nc_observer.set_history({&writer, run, "file:" + (dir.path / "out").string(), nc::Dialect::LinuxCNC, {}});
+    ReplaySession session(sc, AlcParameters{});
+    session.run(sc.time_s.front() + 12 * 3600.0, &nc_observer);
+    writer.end_run(run, storage::RunStatus::Stopped);
+  }
+  const auto rows = storage::HistoryReader(file).nc_commands(run);
+  const auto& decisions = nc_observer.recorder().decisions();
+  REQUIRE(rows.size() == decisions.size());
+  REQUIRE(rows.size() == nc_observer.commands().size());
+  std::size_t refused = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    INFO("command " << i << " at t = " << rows[i].time_s << " s: " << rows[i].text);
+    const bool passed = decisions[i].verdict != nc::SafetyVerdict::Refused;
+    CHECK(rows[i].accepted == passed);
+    CHECK(rows[i].sink == "file:" + (dir.path / "out").string());
+    if (passed) {
+      CHECK(rows[i].message == (decisions[i].verdict == nc::SafetyVerdict::Split ? decisions[i].message : ""));
+    } else {
+      ++refused;
+      CHECK(rows[i].message == decisions[i].message);                     // the gate's reason
+      CHECK(rows[i].text == nc::to_json_line(nc_observer.commands()[i]));  // the request, nothing sent
+    }
+  }
+  CHECK(refused == nc_observer.refused());
+  CHECK(refused >= 1);
+  CHECK(refused < rows.size());  // probe-interval commands pass
 }
 
 TEST_CASE("kinematics: output names map to the seven location errors, others are ignored") {
@@ -71,4 +228,65 @@ TEST_CASE("kinematics: output names map to the seven location errors, others are
   CHECK(e.a0c_um_per_m == 0.0);
   CHECK(kinematics::location_error_field("E_Z0T") == 2);
   CHECK(kinematics::location_error_field("E_Z1") == -1);
+}
+
+TEST_CASE("replay history: snapshots every period from the run's first sample, and a resumed run restarts the count") {
+  Scenario sc = simulate_case("A").scenario;
+  const double t0 = 1.0e6;  // a recording whose time does not start at 0
+  for (double& t : sc.time_s) t += t0;
+  const double h = 3600.0;
+  const auto chain = kinematics::MachineChain::ac_trunnion();
+  const TempDir dir;
+  // As `alc replay --db [--stop-at] [--resume]` drives the recorder, with a 2 h period.
+  auto record = [&](const std::filesystem::path& file, double stop_s, bool resume) {
+    storage::HistoryWriter writer(file);
+    std::optional<ReplaySession> session;
+    storage::RunId run = 1;
+    if (resume) {
+      session.emplace(sc, AlcParameters{}, decode_replay_state(writer.resume_run(run).snapshot.payload));
+    } else {
+      run = begin_run(writer, sc, chain);
+      session.emplace(sc, AlcParameters{});
+    }
+    HistoryRecorder recorder(writer, run, session->controller(), 2 * h);
+    recorder.record_offsets(chain, sc.output_names);
+    if (!resume) recorder.save_snapshot(*session);
+    session->run(stop_s, &recorder);
+    recorder.save_snapshot(*session);
+    writer.end_run(run, storage::RunStatus::Stopped);
+  };
+  const auto whole = dir.path / "whole.sqlite", resumed = dir.path / "resumed.sqlite";
+  record(whole, t0 + 9 * h, false);
+  record(resumed, t0 + 5 * h, false);
+  record(resumed, t0 + 9 * h, true);
+  auto snapshot_times = [](const std::filesystem::path& file) {
+    std::vector<double> times;
+    for (const auto& s : storage::HistoryReader(file).snapshots(1)) times.push_back(s.time_s);
+    return times;
+  };
+  const double before = storage::kSnapshotBeforeStart_s, minute = 60.0;
+  CHECK(snapshot_times(whole) == std::vector<double>{before, t0 + 2 * h, t0 + 4 * h, t0 + 6 * h, t0 + 8 * h,
+                                                     t0 + 9 * h - minute});
+  // The stop (last row before 5 h), then the first row replayed after the resume, then 2 h later.
+  CHECK(snapshot_times(resumed) == std::vector<double>{before, t0 + 2 * h, t0 + 4 * h, t0 + 5 * h - minute, t0 + 5 * h,
+                                                       t0 + 7 * h, t0 + 9 * h - minute});
+  // Everything but the snapshots is the same as uninterrupted.
+  const storage::HistoryReader a(whole), b(resumed);
+  CHECK(a.input_samples(1).size() == b.input_samples(1).size());
+  const auto pa = a.predictions(1), pb = b.predictions(1);
+  REQUIRE(pa.size() == pb.size());
+  for (std::size_t i = 0; i < pa.size(); ++i) {
+    INFO("prediction " << i);
+    CHECK(pa[i].time_s == pb[i].time_s);
+    CHECK(pa[i].predicted == pb[i].predicted);
+    CHECK(pa[i].offsets == pb[i].offsets);
+  }
+  const auto qa = a.probe_measurements(1), qb = b.probe_measurements(1);
+  REQUIRE(qa.size() == qb.size());
+  for (std::size_t i = 0; i < qa.size(); ++i) {
+    CHECK(qa[i].time_s == qb[i].time_s);
+    CHECK(qa[i].phase == qb[i].phase);
+  }
+  CHECK(a.phase_changes(1).size() == b.phase_changes(1).size());
+  CHECK(a.model_parameter_sets(1).size() == b.model_parameter_sets(1).size());
 }

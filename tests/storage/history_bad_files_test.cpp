@@ -90,6 +90,29 @@ std::uint32_t damage_a_leaf_page(const std::filesystem::path& file) {
   return leaf;
 }
 
+// Root ignores file permissions: runs `attempt` in a child process, as `nobody` when this process is
+// root, and returns the child's exit code (`attempt`'s result: 0 when all it checked held, else bits
+// naming what failed; 10: could not become nobody; 99: an unexpected exception).
+template <class F>
+int exit_code_as_nobody(F&& attempt) {
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    if (geteuid() == 0 && (setgid(65534) != 0 || setuid(65534) != 0)) _exit(10);
+    int code = 99;
+    try {
+      code = attempt();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "as nobody: %s\n", e.what());
+    }
+    _exit(code);
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  return WEXITSTATUS(status);
+}
+
 }  // namespace
 
 TEST_CASE("a file that is not a database is refused and left untouched", "[storage]") {
@@ -273,7 +296,7 @@ TEST_CASE("a locked database gives a locked error after the busy timeout", "[sto
   CHECK_NOTHROW(HistoryWriter(file, options));
 }
 
-TEST_CASE("a read-only directory or file gives a read-only error", "[storage]") {
+TEST_CASE("a read-only directory gives a read-only error (to a writer, for a new or an existing file)", "[storage]") {
   ScratchDir dir;
   const auto locked_dir = dir.path / "ro";
   std::filesystem::create_directories(locked_dir);
@@ -282,32 +305,56 @@ TEST_CASE("a read-only directory or file gives a read-only error", "[storage]") 
                                                std::filesystem::perms::group_read | std::filesystem::perms::group_exec |
                                                std::filesystem::perms::others_read | std::filesystem::perms::others_exec);
   const std::string before = test::read_bytes(existing);
-  // Root ignores permissions: run the attempts as `nobody` in a child process.
-  const pid_t child = fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    if (geteuid() == 0 && (setgid(65534) != 0 || setuid(65534) != 0)) _exit(10);
-    int code = 0;
-    try {
-      HistoryWriter writer(locked_dir / "new.sqlite");
-      code |= 1;
-    } catch (const StorageError& e) {
-      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("new.sqlite") == std::string::npos) code |= 2;
-    }
-    try {
-      HistoryWriter writer(existing);
-      code |= 4;
-    } catch (const StorageError& e) {
-      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("not writable") == std::string::npos) code |= 8;
-    }
-    _exit(code);
-  }
-  int status = 0;
-  waitpid(child, &status, 0);
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 0);
+  CHECK(exit_code_as_nobody([&] {
+          int code = 0;
+          try {
+            HistoryWriter writer(locked_dir / "new.sqlite");
+            code |= 1;
+          } catch (const StorageError& e) {
+            if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("new.sqlite") == std::string::npos)
+              code |= 2;
+          }
+          try {
+            HistoryWriter writer(existing);
+            code |= 4;
+          } catch (const StorageError& e) {
+            if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("not writable") == std::string::npos)
+              code |= 8;
+          }
+          return code;
+        }) == 0);
   CHECK_FALSE(std::filesystem::exists(locked_dir / "new.sqlite"));
   CHECK(test::read_bytes(existing) == before);
+}
+
+TEST_CASE("a read-only file in a writable directory is refused by the writer naming the file, and left untouched", "[storage]") {
+  ScratchDir dir;
+  const auto open_dir = dir.path / "rw";
+  std::filesystem::create_directories(open_dir);
+  std::filesystem::permissions(open_dir, std::filesystem::perms::all);  // writable by anyone, `nobody` too
+  const auto file = filled_history(dir, "rw/readonly.sqlite", 5);
+  std::filesystem::permissions(file, std::filesystem::perms::owner_read | std::filesystem::perms::group_read |
+                                         std::filesystem::perms::others_read);  // 0444
+  const std::string before = test::read_bytes(file);
+  CHECK(exit_code_as_nobody([&] {
+          if (::access(file.c_str(), W_OK) == 0) return 11;      // the file must really be read-only here
+          if (::access(open_dir.c_str(), W_OK) != 0) return 12;  // and its directory writable
+          int code = 0;
+          try {
+            HistoryWriter writer(file);
+            writer.begin_run(test::small_run());
+            code |= 1;
+          } catch (const StorageError& e) {
+            if (e.kind != StorageErrorKind::ReadOnly) code |= 2;
+            if (std::string(e.what()).find("'" + file.string() + "'") == std::string::npos) code |= 4;
+            if (std::string(e.what()).find("the file is read-only") == std::string::npos) code |= 8;
+            if (code != 0) std::fprintf(stderr, "writer: %s\n", e.what());
+          }
+          return code;
+        }) == 0);
+  check_untouched(file, before);  // bytes unchanged, no -wal/-shm left beside it
+  // It is still a history that can be read (a reader needs no write permission on the file).
+  CHECK(HistoryReader(file).input_samples(1).size() == 5);
 }
 
 TEST_CASE("a reader opens a history in a directory it cannot write to (immutable, no -shm)", "[storage]") {
@@ -322,49 +369,42 @@ TEST_CASE("a reader opens a history in a directory it cannot write to (immutable
                                                std::filesystem::perms::group_read | std::filesystem::perms::group_exec |
                                                std::filesystem::perms::others_read | std::filesystem::perms::others_exec);
   const std::string before = test::read_bytes(existing);
-  // Root ignores permissions: read as `nobody` in a child process (what info, check, export do).
-  const pid_t child = fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    if (geteuid() == 0 && (setgid(65534) != 0 || setuid(65534) != 0)) _exit(10);
-    if (::access(locked_dir.c_str(), W_OK) == 0) _exit(11);  // the directory must really be read-only here
-    int code = 0;
-    try {
-      const HistoryReader reader(existing);
-      if (reader.runs().size() != 1 || reader.input_samples(1).size() != 5) code |= 1;
-    } catch (const StorageError& e) {
-      std::fprintf(stderr, "reader: %s\n", e.what());
-      code |= 2;
-    }
-    try {
-      if (!check_history(existing).ok()) code |= 4;
-    } catch (const StorageError& e) {
-      std::fprintf(stderr, "check: %s\n", e.what());
-      code |= 8;
-    }
-    try {
-      std::ostringstream csv;
-      export_table_csv(existing, "input_samples", csv);
-      if (csv.str().rfind("run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,", 0) != 0) code |= 16;
-    } catch (const StorageError& e) {
-      std::fprintf(stderr, "export: %s\n", e.what());
-      code |= 32;
-    }
-    try {
-      const HistoryReader reader(with_wal);
-      code |= 64;
-    } catch (const StorageError& e) {
-      if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("-wal' lies beside") == std::string::npos) {
-        std::fprintf(stderr, "with -wal: %s\n", e.what());
-        code |= 128;
-      }
-    }
-    _exit(code);
-  }
-  int status = 0;
-  waitpid(child, &status, 0);
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 0);
+  // Read as `nobody` (what info, check, export do).
+  CHECK(exit_code_as_nobody([&] {
+          if (::access(locked_dir.c_str(), W_OK) == 0) return 11;  // the directory must really be read-only here
+          int code = 0;
+          try {
+            const HistoryReader reader(existing);
+            if (reader.runs().size() != 1 || reader.input_samples(1).size() != 5) code |= 1;
+          } catch (const StorageError& e) {
+            std::fprintf(stderr, "reader: %s\n", e.what());
+            code |= 2;
+          }
+          try {
+            if (!check_history(existing).ok()) code |= 4;
+          } catch (const StorageError& e) {
+            std::fprintf(stderr, "check: %s\n", e.what());
+            code |= 8;
+          }
+          try {
+            std::ostringstream csv;
+            export_table_csv(existing, "input_samples", csv);
+            if (csv.str().rfind("run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,", 0) != 0) code |= 16;
+          } catch (const StorageError& e) {
+            std::fprintf(stderr, "export: %s\n", e.what());
+            code |= 32;
+          }
+          try {
+            const HistoryReader reader(with_wal);
+            code |= 64;
+          } catch (const StorageError& e) {
+            if (e.kind != StorageErrorKind::ReadOnly || std::string(e.what()).find("-wal' lies beside") == std::string::npos) {
+              std::fprintf(stderr, "with -wal: %s\n", e.what());
+              code |= 128;
+            }
+          }
+          return code;
+        }) == 0);
   check_untouched(existing, before);
 }
 

@@ -48,7 +48,7 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
   model.adopted = true;
   model.fit_summary_json = R"({"outputs":[{"name":"E_X0C","residual_rms":0.4}]})";
   model.model_json = R"({"parameters":[1,2,3]})";
-  PhaseChangeRecord phase{0, 23400.0, "CP", "PostCP", "CP of 6.5 h complete"};
+  PhaseChangeRecord phase{0, 23400.0, "CP", "Post-CP", "CP of 6.5 h complete"};
   ProbeIntervalChangeRecord interval{0, 23400.0, kInf, "Post-CP interval Inf"};
   NcCommandRecord nc{0, 23460.0, "offsets", "G10 L2 P1 X0.0012\n", "file:/tmp/out.nc", false, "sink full, \"retry\""};
   ControllerSnapshot snapshot{0, 23460.0, 391, "alc.controller/1", false, std::string("\0\x01\xff binary", 10)};
@@ -120,7 +120,7 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
   const auto phases = reader.phase_changes(id);
   REQUIRE(phases.size() == 1);
   CHECK(phases[0].from_phase == "CP");
-  CHECK(phases[0].to_phase == "PostCP");
+  CHECK(phases[0].to_phase == "Post-CP");
   CHECK(phases[0].reason == phase.reason);
 
   const auto intervals = reader.probe_interval_changes(id);
@@ -193,6 +193,28 @@ TEST_CASE("records are committed one transaction per batch", "[storage]") {
   CHECK(peek.scalar("SELECT COUNT(*) FROM input_samples") == 1050);
   writer.commit();  // nothing pending: no empty transaction
   CHECK(writer.transactions_committed() - commits_after_begin == 11);
+}
+
+TEST_CASE("a history is written with the WAL journal, and the file stays in WAL mode", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "wal.sqlite";
+  {
+    HistoryWriter writer(file);
+    writer.begin_run(test::small_run());  // committed at once
+    CHECK(RawDb(file).text("PRAGMA journal_mode") == "wal");
+    CHECK(std::filesystem::exists(file.string() + "-wal"));  // commits go to the WAL beside the file
+  }
+  // Persistent in the file: header bytes 18 and 19 (write and read format versions) are 2 for WAL.
+  const std::string bytes = test::read_bytes(file);
+  REQUIRE(bytes.size() >= 100);
+  CHECK(static_cast<int>(bytes[18]) == 2);
+  CHECK(static_cast<int>(bytes[19]) == 2);
+  CHECK(RawDb(file).text("PRAGMA journal_mode") == "wal");
+  // An older file in another journal mode is switched when a writer opens it.
+  REQUIRE(RawDb(file).text("PRAGMA journal_mode = DELETE") == "delete");
+  CHECK(test::read_bytes(file)[18] == 1);
+  HistoryWriter(file).close();
+  CHECK(RawDb(file).text("PRAGMA journal_mode") == "wal");
 }
 
 TEST_CASE("resume returns the latest snapshot and drops what was written after it", "[storage]") {

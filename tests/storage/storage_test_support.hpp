@@ -71,6 +71,14 @@ struct RawDb {
     sqlite3_finalize(st);
     return value;
   }
+  std::string text(const std::string& sql) {
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(db, sql.c_str(), -1, &st, nullptr);
+    std::string value = "(no row)";
+    if (sqlite3_step(st) == SQLITE_ROW) value = reinterpret_cast<const char*>(sqlite3_column_text(st, 0));
+    sqlite3_finalize(st);
+    return value;
+  }
 };
 
 }  // namespace alc::storage::test

@@ -20,12 +20,17 @@ std::string encode_replay_state(const ReplayState& state);
 ReplayState decode_replay_state(const std::string& payload);
 
 // Writes every sample, prediction, probe, phase change, interval change and identification of a
-// replay into `writer` under `run`, and a snapshot every `snapshot_every_s` of scenario time.
+// replay into `writer` under `run`, and a snapshot every `snapshot_every_s` of scenario time: after
+// the first row at or past the run's first sample + snapshot_every_s, then after the first row at or
+// past the previous snapshot + snapshot_every_s. A recorder of a resumed run counts from the run's
+// first sample too, so past that point it saves a snapshot after its first row (docs/storage.md).
 class HistoryRecorder : public ReplayObserver {
  public:
   HistoryRecorder(storage::HistoryWriter& writer, storage::RunId run, const Controller& controller,
                   double snapshot_every_s = 24 * 3600.0);
   void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const ControllerOutput& out) override;
+  // Stores the probe with the phase it was taken in, not the one its handling led to: a breaching
+  // Post-CP probe is a Post-CP probe (its PhaseChange event to NG follows in phase_changes).
   void on_probe(std::size_t row, const ProbeMeasurement& probe, const ControllerOutput& out) override;
   // Also record, with every prediction, the axis offsets that cancel it (kinematics::compensate at
   // the reference pose, tilt = table = 0), in the order of offset_names(chain). Only when some output
@@ -33,6 +38,10 @@ class HistoryRecorder : public ReplayObserver {
   void record_offsets(const kinematics::MachineChain& chain, std::vector<std::string> output_names);
   // "X_um", "Y_um", "Z_um", "<tilt>_urad", "C_urad": the offset channels of record_offsets().
   static std::vector<std::string> offset_names(const kinematics::MachineChain& chain);
+  // The RunRecord::offset_names of a run with these outputs: offset_names(chain) when record_offsets()
+  // will record offsets (some output is a C-axis error), else none.
+  static std::vector<std::string> offset_names(const kinematics::MachineChain& chain,
+                                               const std::vector<std::string>& output_names);
   // Saves a snapshot when one is due.
   void on_row_done(const ReplaySession& session) override;
   // Stores the session's state as a snapshot (commits everything before it).

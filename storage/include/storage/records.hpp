@@ -45,7 +45,8 @@ struct InputSampleRecord {
 struct ProbeMeasurementRecord {
   RunId run_id = 0;
   double time_s = 0.0;                      // [s]
-  std::string phase;                        // phase when probed: "CP", "PostCP", "NG"
+  std::string phase;                        // phase when probed, before the probe was handled:
+                                            // "CP", "Post-CP", "NG" (alc::to_string(Phase))
   std::vector<double> measured;             // [µm] or [µm/m] per output; NaN = not measured
   std::vector<double> compensation;         // [µm] or [µm/m] per output, active at probe time
   double weight = 1.0;                      // [-] weight in identification (0 = screened out)
@@ -79,7 +80,7 @@ struct PhaseChangeRecord {
   RunId run_id = 0;
   double time_s = 0.0;                      // [s]
   std::string from_phase;                   // "" at the start of a run
-  std::string to_phase;                     // "CP", "PostCP", "NG"
+  std::string to_phase;                     // "CP", "Post-CP", "NG" (alc::to_string(Phase))
   std::string reason;                       // "residual 6.2 µm of E_X0C above ACL 5 µm", ...
 };
 
@@ -91,15 +92,17 @@ struct ProbeIntervalChangeRecord {
   std::string reason;
 };
 
-// An NC command emitted to a sink (schema version 2).
+// An NC command emitted for a sink (schema version 2), stored when the safety gate has judged it and
+// before it is handed to the sink. Delivery itself is not recorded (docs/storage.md, nc_commands).
 struct NcCommandRecord {
   RunId run_id = 0;
   double time_s = 0.0;                      // [s]
   std::string kind;                         // "offsets", "probe_interval", ...
-  std::string text;                         // the NC code as sent
+  std::string text;                         // the NC code for the sink; a refused command: its JSON request
   std::string sink;                         // "file:/path", "stdout", "tcp:host:port"
-  bool accepted = false;                    // whether the sink took it
-  std::string message;                      // the sink's error when not accepted
+  bool accepted = false;                    // the safety gate passed it (possibly split into steps), so it
+                                            // is handed to the sink; false: refused, nothing sent
+  std::string message;                      // the gate's reason for a refusal or its note on a split, else ""
 };
 
 // time_s of a snapshot taken before the controller saw its first sample (replay saves one at the
