@@ -1,5 +1,6 @@
 #include "scenarios/replay_history.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -262,9 +263,8 @@ void HistoryRecorder::record_events(const ControllerOutput& out, double time_s) 
     }
   }
   if (out.fit) {
-    const auto& p = controller_.parameters();
-    const double window_start =
-        std::isfinite(p.learning_window_s) ? time_s - p.learning_window_s : controller_.state().start_time_s;
+    // The first probe time the fit could learn from (--window and --since), not before the run.
+    const double window_start = std::max(controller_.learning_window_start(time_s), controller_.state().start_time_s);
     std::string reason;
     for (const auto& e : out.events)
       if (e.type == ControllerEvent::Type::ModelUpdate || e.type == ControllerEvent::Type::ModelRejected)

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -289,4 +290,41 @@ TEST_CASE("replay history: snapshots every period from the run's first sample, a
   }
   CHECK(a.phase_changes(1).size() == b.phase_changes(1).size());
   CHECK(a.model_parameter_sets(1).size() == b.model_parameter_sets(1).size());
+}
+
+TEST_CASE("replay history: a model parameter set stores the first probe time its fit could learn from") {
+  const TempDir dir;
+  const auto simulated = simulate_case("B");
+  const Scenario& sc = simulated.scenario;
+  const auto windows_of = [&](const AlcParameters& p, const std::string& name) {
+    const auto file = dir.path / name;
+    storage::RunId run = 0;
+    {
+      storage::HistoryWriter writer(file);
+      storage::RunRecord r;  // no offset channels: this test is about the fits
+      r.source = "test";
+      r.input_names = sc.input_names;
+      r.output_names = sc.output_names;
+      run = writer.begin_run(r);
+      ReplaySession session(sc, p);
+      HistoryRecorder recorder(writer, run, session.controller());
+      session.run(30 * 3600.0, &recorder);
+      writer.end_run(run, storage::RunStatus::Stopped);
+    }
+    return storage::HistoryReader(file).model_parameter_sets(run);
+  };
+  AlcParameters p;
+  const auto all = windows_of(p, "all.sqlite");
+  REQUIRE(all.size() > 3);
+  for (const auto& m : all) CHECK(m.window_start_s == sc.time_s.front());  // all data since the start
+  p.learning_since_s = 10 * 3600.0;
+  p.learning_window_s = 16 * 3600.0;
+  const auto limited = windows_of(p, "limited.sqlite");
+  REQUIRE(limited.size() > 3);
+  for (const auto& m : limited) {
+    INFO("fit at " << m.time_s << " s");
+    CHECK(m.window_start_s == std::max({sc.time_s.front(), 10 * 3600.0, m.time_s - 16 * 3600.0}));
+    CHECK(m.window_end_s == m.time_s);
+  }
+  CHECK(limited.back().window_start_s == limited.back().time_s - 16 * 3600.0);  // the window took over
 }
