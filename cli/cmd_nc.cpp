@@ -77,8 +77,9 @@ void run_nc(const NcArgs& args) {
     throw UsageError(e.what());
   }
   // Safety first: nothing is written when any command is refused. max_step is judged from the
-  // offsets in force (--in-force), else from zero offsets.
-  nc::CommandRecorder recorder(config.limits);
+  // offsets in force (--in-force), else from zero offsets, per register of the dialect (heidenhain:
+  // one datum shift for every work offset).
+  nc::CommandRecorder recorder(config.limits, nc::offset_registers(*dialect));
   if (!args.in_force.empty()) {
     for (const nc::AxisOffsets& o : read_in_force(args.in_force)) {
       try {
@@ -133,7 +134,9 @@ void add_nc_command(CLI::App& app) {
             "the offsets in force given by --in-force; without it, the first command of each work offset\n"
             "is judged against zero offsets. See docs/nc.md.");
   cmd->add_option("--dialect", args->dialect, "linuxcnc, fanuc, sinumerik or heidenhain")->required();
-  cmd->add_option("--machine", args->machine, "machine config (TOML): kinematics, [nc], [limits]; see nc_interface/machine.example.toml");
+  cmd->add_option("--machine", args->machine,
+                  "machine config (TOML): [nc] (parameter numbers, base offsets) and [limits]; its [kinematics] "
+                  "is not used (the commands are axis offsets already); see nc_interface/machine.example.toml");
   cmd->add_option("--in", args->input, "commands file (JSON lines); default stdin");
   cmd->add_option("--in-force", args->in_force,
                   "offsets in force now (JSON lines, one axis_offsets per work offset, same form as the commands); "

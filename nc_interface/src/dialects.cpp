@@ -120,7 +120,9 @@ void write_heidenhain(std::ostream& s, const std::vector<NcCommand>& commands, c
        std::to_string(options.heidenhain_interval_qr) + " [MIN]");
   for (const NcCommand& c : commands) {
     if (const auto* o = std::get_if<AxisOffsets>(&c)) {
-      // Cycle 7 shifts the datum against the active preset: compensation only, no base.
+      // Cycle 7 shifts the datum against the active preset: compensation only, no base. There is one
+      // such shift, so work_offset is not written: every command lands in the same register, and the
+      // safety gate judges it so (offset_registers).
       line("CYCL DEF 7.0 DATUM SHIFT");
       int sub = 1;
       for (const AxisWord& w : axis_words(*o, nullptr))
@@ -161,6 +163,10 @@ std::string_view program_extension(Dialect dialect) {
     case Dialect::Heidenhain: return ".h";
   }
   return ".txt";
+}
+
+OffsetRegisters offset_registers(Dialect dialect) {
+  return dialect == Dialect::Heidenhain ? OffsetRegisters::Single : OffsetRegisters::PerWorkOffset;
 }
 
 std::string validate(const DialectOptions& o) {

@@ -12,7 +12,7 @@
 
 namespace alc::nc {
 
-CommandRecorder::CommandRecorder(SafetyLimits limits) : gate_(limits) {
+CommandRecorder::CommandRecorder(SafetyLimits limits, OffsetRegisters registers) : gate_(limits, registers) {
   if (const std::string e = validate(limits); !e.empty()) throw std::invalid_argument("safety limits: " + e);
 }
 
@@ -76,7 +76,7 @@ NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect
                                        const std::vector<NcCommand>& commands, const DialectOptions& options,
                                        const SafetyLimits& limits) {
   if (const std::string e = validate(options); !e.empty()) throw std::invalid_argument("NC options: " + e);
-  CommandRecorder recorder(limits);
+  CommandRecorder recorder(limits, offset_registers(dialect));
   NcOutputSummary summary;
   std::ostringstream safety;
   for (const NcCommand& c : commands) {

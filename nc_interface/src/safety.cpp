@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "nc_interface/nc_number.hpp"
 
@@ -33,6 +34,12 @@ std::optional<double> blend(const std::optional<double>& from, const std::option
 
 std::string show(double v) {
   return std::isfinite(v) && std::abs(v) <= kMaxNcMagnitude ? format_nc_number(v) : std::to_string(v);
+}
+
+// "G55", or "work offset N" for a number outside G54…G59 (the gate itself does not validate).
+std::string name_of(int work_offset) {
+  if (work_offset >= kMinWorkOffset && work_offset <= kMaxWorkOffset) return work_offset_name(work_offset);
+  return "work offset " + std::to_string(work_offset);
 }
 
 }  // namespace
@@ -110,21 +117,38 @@ SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& curr
   return d;
 }
 
-SafetyGate::SafetyGate(SafetyLimits limits) : limits_(limits) {}
+SafetyGate::SafetyGate(SafetyLimits limits, OffsetRegisters registers) : limits_(limits), registers_(registers) {}
+
+int SafetyGate::register_of(int work_offset) const {
+  return registers_ == OffsetRegisters::Single ? 0 : work_offset;
+}
 
 AxisOffsets SafetyGate::current(int work_offset) const {
-  const auto it = current_.find(work_offset);
+  const auto it = current_.find(register_of(work_offset));
   if (it != current_.end()) return it->second;
   AxisOffsets zero;
   zero.work_offset = work_offset;
   return zero;
 }
 
-void SafetyGate::set_in_force(const AxisOffsets& offsets) { current_[offsets.work_offset] = offsets; }
+void SafetyGate::set_in_force(const AxisOffsets& offsets) {
+  if (registers_ == OffsetRegisters::Single) {
+    if (in_force_work_offset_ && *in_force_work_offset_ != offsets.work_offset)
+      throw std::invalid_argument("the NC has one offset register for every work offset, so the offsets in force "
+                                  "are one set: given for " + name_of(*in_force_work_offset_) + " and " +
+                                  name_of(offsets.work_offset));
+    in_force_work_offset_ = offsets.work_offset;
+  }
+  current_[register_of(offsets.work_offset)] = offsets;
+}
 
 SafetyDecision SafetyGate::submit(const AxisOffsets& requested) {
-  SafetyDecision d = check_offsets(limits_, current(requested.work_offset), requested);
-  if (d.verdict != SafetyVerdict::Refused) current_[requested.work_offset] = requested;
+  const AxisOffsets from = current(requested.work_offset);
+  SafetyDecision d = check_offsets(limits_, from, requested);
+  if (d.verdict != SafetyVerdict::Accepted && from.work_offset != requested.work_offset)
+    d.message += "; judged against the offsets of " + name_of(from.work_offset) +
+                 " (one offset register for every work offset)";
+  if (d.verdict != SafetyVerdict::Refused) current_[register_of(requested.work_offset)] = requested;
   return d;
 }
 

@@ -417,7 +417,8 @@ TEST_CASE("linuxcnc simulator: offsets sent over linuxcncrsh are applied and rea
                                           offsets(-0.1, 0.1, -0.1, 0.01, {}, -0.01), offsets(0, 0, 0, 0.0, {}, 0)};
     for (const NcCommand& c : commands) {
       queue.push(c);
-      const DeliveryReport r = queue.flush(sink);  // the sink reads pos_offset back and compares
+      // The sink reads the stored work-offset parameters back (a DEBUG line) and compares.
+      const DeliveryReport r = queue.flush(sink);
       INFO("command " << to_json_line(c) << ": " << r.error);
       REQUIRE(r.ok());
       REQUIRE(r.delivered == 1);

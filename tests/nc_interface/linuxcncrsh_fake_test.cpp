@@ -21,7 +21,9 @@
 #include <thread>
 #include <unistd.h>
 
+#include "../cli_support.hpp"
 #include "nc_interface/dialects.hpp"
+#include "nc_interface/jsonl.hpp"
 #include "nc_interface/transports.hpp"
 #include "nc_test_support.hpp"
 
@@ -281,4 +283,43 @@ TEST_CASE("linuxcncrsh sink: a read-back that never arrives is an error within t
   CommandQueue intervals;
   intervals.push(ProbeInterval{5.0, {}});
   CHECK(intervals.flush(sink).ok());
+}
+
+TEST_CASE("alc nc --sink linuxcncrsh: delivers and reads back, what did not take goes to stderr with exit 1",
+          "[nc][transport][cli]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_linuxcncrsh");
+  alc::nc::test::write_text(dir / "m.toml", "[nc.base.G55]\nx_mm = 100.0\nc_deg = 90.0\n");
+  const std::string machine = " --machine " + (dir / "m.toml").string();
+  const auto write_in = [&](const std::vector<NcCommand>& commands) {
+    std::ostringstream jsonl;
+    write_commands_jsonl(jsonl, commands);
+    alc::nc::test::write_text(dir / "in.jsonl", jsonl.str());
+    return " --in " + (dir / "in.jsonl").string();
+  };
+  FakeLinuxcncrsh fake;
+  const std::string sink = " --sink linuxcncrsh --port " + std::to_string(fake.port());
+
+  const AxisOffsets g55 = offsets(0.0093, -0.004, 0.01, 0.0009, -0.0008, 2);  // within max_step of zero
+  const AxisOffsets g54 = offsets(-0.0071, 0.0032, 0.0, -0.0004, 0.0005, 1);
+  auto r = alc_test::run_alc("nc --dialect linuxcnc" + machine + sink + write_in({g55, ProbeInterval{30.0, {}}, g54}),
+                             "cli_linuxcncrsh");
+  INFO(r.err);
+  CHECK(r.exit_code == 0);
+  CHECK_THAT(r.err, Contains("3 command(s) delivered to linuxcncrsh 127.0.0.1:" + std::to_string(fake.port())));
+  CHECK_THAT(fake.param(5241), WithinAbs(100.0093, 1e-12));  // G55: base + compensation
+  CHECK_THAT(fake.param(5246), WithinAbs(89.9992, 1e-12));
+  CHECK_THAT(fake.param(5221), WithinAbs(-0.0071, 1e-12));   // G54
+  CHECK(any_line_contains(fake.received(), "set mdi #3001 = 30.0000"));
+
+  // A G10 that does not take: the interval before it is delivered, the offsets are not and are printed.
+  set(fake, [](FakeLinuxcncrsh& f) { f.apply_g10 = false; });
+  const AxisOffsets g55_next = offsets(0.0063, -0.004, 0.01, 0.0009, -0.0008, 2);
+  r = alc_test::run_alc("nc --dialect linuxcnc" + machine + sink + write_in({ProbeInterval{20.0, {}}, g55_next, g54}),
+                        "cli_linuxcncrsh");
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Contains("1 delivered, 2 not delivered:") &&
+                        Contains("read back G55 X offset 100.009300 (parameter #5241), sent 100.0063"));
+  CHECK(alc::nc::test::undelivered_commands(r.err) == std::vector<NcCommand>{g55_next, g54});
+  CHECK_THAT(fake.param(5241), WithinAbs(100.0093, 1e-12));  // unchanged
+  std::filesystem::remove_all(dir);
 }

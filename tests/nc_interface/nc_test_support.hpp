@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "nc_interface/commands.hpp"
+#include "nc_interface/jsonl.hpp"
 
 namespace alc::nc::test {
 
@@ -68,6 +69,17 @@ inline std::filesystem::path fresh_dir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+// The commands that `alc nc` printed to stderr as not delivered: its lines that start with '{',
+// read back as JSON lines (so they are exactly what a resend would read).
+inline std::vector<NcCommand> undelivered_commands(const std::string& err) {
+  std::istringstream in(err);
+  std::string json;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line.front() == '{') json += line + "\n";
+  std::istringstream lines(json);
+  return read_commands_jsonl(lines, "<stderr>");
 }
 
 }  // namespace alc::nc::test

@@ -3,10 +3,16 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <arpa/inet.h>
+#include <array>
 #include <cmath>
 #include <cstdlib>
+#include <netinet/in.h>
+#include <random>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <sstream>
+#include <unistd.h>
 
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/jsonl.hpp"
@@ -15,6 +21,7 @@
 #include "nc_interface/recorder.hpp"
 #include "nc_interface/safety.hpp"
 #include "nc_interface/transports.hpp"
+#include "../cli_support.hpp"
 #include "nc_test_support.hpp"
 
 using namespace alc::nc;
@@ -315,6 +322,87 @@ TEST_CASE("safety: max_step refuses or splits, by configuration", "[nc][safety]"
   }
 }
 
+TEST_CASE("safety: one offset register (heidenhain) judges every work offset against the last command",
+          "[nc][safety]") {
+  CHECK(offset_registers(Dialect::Heidenhain) == OffsetRegisters::Single);
+  CHECK(offset_registers(Dialect::LinuxCNC) == OffsetRegisters::PerWorkOffset);
+  CHECK(offset_registers(Dialect::Fanuc) == OffsetRegisters::PerWorkOffset);
+  CHECK(offset_registers(Dialect::Sinumerik) == OffsetRegisters::PerWorkOffset);
+  // Alternating G54 / G55, each work offset constant: per work offset every step is small, but on
+  // one register (Heidenhain's datum shift) X would jump by 0.018 mm each time.
+  const std::vector<AxisOffsets> alternating{offsets(0.009, 0, 0, 0, 0, 1), offsets(-0.009, 0, 0, 0, 0, 2),
+                                             offsets(0.009, 0, 0, 0, 0, 1), offsets(-0.009, 0, 0, 0, 0, 2)};
+  SafetyGate per_offset;
+  for (const AxisOffsets& o : alternating) CHECK(per_offset.submit(o).verdict == SafetyVerdict::Accepted);
+  SafetyGate single({}, OffsetRegisters::Single);
+  CHECK(single.submit(alternating[0]).verdict == SafetyVerdict::Accepted);
+  const SafetyDecision d = single.submit(alternating[1]);
+  CHECK(d.verdict == SafetyVerdict::Refused);
+  CHECK_THAT(d.message, Contains("axis X change -0.0180 mm exceeds max_step 0.0100 mm") &&
+                            Contains("judged against the offsets of G54 (one offset register for every work offset)"));
+  CHECK(single.current(2) == alternating[0]);  // the one register, whichever work offset is asked
+  CHECK(single.current(1) == alternating[0]);
+  // A change within max_step from the other work offset's command is fine …
+  CHECK(single.submit(offsets(0.0, 0, 0, 0, 0, 2)).verdict == SafetyVerdict::Accepted);
+  CHECK(single.current(1) == offsets(0.0, 0, 0, 0, 0, 2));
+  // … and splitting steps from it, whatever the work offset of the request.
+  SafetyLimits split;
+  split.on_step_violation = StepAction::Split;
+  SafetyGate split_gate(split, OffsetRegisters::Single);
+  REQUIRE(split_gate.submit(alternating[0]).verdict == SafetyVerdict::Accepted);
+  const SafetyDecision s = split_gate.submit(alternating[1]);
+  REQUIRE(s.verdict == SafetyVerdict::Split);
+  REQUIRE(s.to_send.size() == 2);
+  CHECK_THAT(s.to_send[0].x_mm, WithinAbs(0.0, 1e-15));
+  CHECK(s.to_send[0].work_offset == 2);
+  CHECK(s.to_send[1] == alternating[1]);
+  // One register holds one set of offsets: in force for two work offsets is a contradiction.
+  SafetyGate in_force({}, OffsetRegisters::Single);
+  in_force.set_in_force(offsets(0.05, 0, 0, 0, 0, 1));
+  in_force.set_in_force(offsets(0.06, 0, 0, 0, 0, 1));  // the same work offset again: replaces it
+  CHECK_THROWS_WITH(in_force.set_in_force(offsets(0.05, 0, 0, 0, 0, 3)), Contains("given for G54 and G56"));
+  CHECK(in_force.submit(offsets(0.0, 0, 0, 0, 0, 3)).verdict == SafetyVerdict::Refused);  // 0.06 -> 0 on G56
+  CHECK(in_force.submit(offsets(0.055, 0, 0, 0, 0, 3)).verdict == SafetyVerdict::Accepted);
+}
+
+TEST_CASE("safety: the heidenhain datum shift never moves by more than max_step, whatever the work offsets",
+          "[nc][safety]") {
+  // A seeded random walk over all six work offsets, each command within max_step of the last command
+  // of its own work offset (what a per-work-offset gate lets through): every cycle 7 the Heidenhain
+  // program ends up with is within max_step of the one before.
+  std::mt19937_64 rng(20240605);
+  std::uniform_int_distribution<int> pick(1, 6);
+  std::uniform_real_distribution<double> change(-0.0095, 0.0095);
+  std::array<double, 7> x{};  // per work offset [mm]
+  std::vector<NcCommand> commands;
+  for (int i = 0; i < 300; ++i) {
+    const int w = pick(rng);
+    const auto k = static_cast<std::size_t>(w);
+    x[k] = std::clamp(x[k] + change(rng), -0.095, 0.095);
+    commands.push_back(offsets(x[k], 0, 0, 0, 0, w));
+  }
+  const auto dir = alc::nc::test::fresh_dir("heidenhain_walk");
+  const NcOutputSummary linuxcnc = write_replay_nc_output(dir / "linuxcnc", Dialect::LinuxCNC, commands);
+  CHECK(linuxcnc.refused == 0);  // per work offset, nothing to refuse
+  const NcOutputSummary heidenhain = write_replay_nc_output(dir / "heidenhain", Dialect::Heidenhain, commands);
+  CHECK(heidenhain.refused > 50);  // jumps between work offsets: refused
+  CHECK(heidenhain.sent == commands.size() - heidenhain.refused);
+  // Read the X of every cycle 7 back from the program text.
+  std::istringstream program(alc::nc::test::read_text(heidenhain.program_file));
+  std::vector<double> shifts;
+  for (std::string line; std::getline(program, line);)
+    if (const auto at = line.find("CYCL DEF 7.1 X"); at != std::string::npos) shifts.push_back(std::stod(line.substr(at + 14)));
+  REQUIRE(shifts.size() == heidenhain.sent);
+  double previous = 0.0, largest_jump = 0.0;
+  for (const double shift : shifts) {
+    largest_jump = std::max(largest_jump, std::abs(shift - previous));
+    previous = shift;
+  }
+  CHECK(largest_jump <= 0.01 + 1e-4);  // max_step, plus the rounding of the written text
+  CHECK(largest_jump > 0.009);         // (the walk does use the step)
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("machine config: defaults, a full file, and errors naming file, key and value", "[nc][config]") {
   const MachineConfig d = parse_machine_config("", "empty.toml");
   CHECK(d.chain.tilt.name == 'A');
@@ -483,8 +571,11 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
     const int status = std::system(cmd.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   };
-  alc::nc::test::write_text(dir / "wide.toml", "[limits.max_offset]\nx_mm = 1\ny_mm = 1\nz_mm = 1\nb_deg = 1\nc_deg = 1\n"
-                                                "[limits.max_step]\nx_mm = 1\ny_mm = 1\nz_mm = 1\nb_deg = 1\nc_deg = 1\n");
+  // Heidenhain writes every work offset to its one datum shift, so the gate judges the reference set's
+  // G54 -> G55 -> G59 changes against each other (A: 0.001 -> -0.00005 deg is above the default max_step).
+  alc::nc::test::write_text(dir / "wide.toml",
+                            "[limits.max_offset]\nx_mm = 1\ny_mm = 1\nz_mm = 1\na_deg = 1\nb_deg = 1\nc_deg = 1\n"
+                            "[limits.max_step]\nx_mm = 1\ny_mm = 1\nz_mm = 1\na_deg = 1\nb_deg = 1\nc_deg = 1\n");
   CHECK(run("--dialect heidenhain --machine " + (dir / "wide.toml").string() + " < " + (dir / "in.jsonl").string()) == 0);
   CHECK(alc::nc::test::read_text(dir / "out") == write_program(Dialect::Heidenhain, reference_commands()));
   CHECK(run("--dialect klartext < " + (dir / "in.jsonl").string()) == 2);
@@ -543,6 +634,137 @@ TEST_CASE("alc nc: --in-force makes max_step count from the offsets in force", "
   // The help says what happens without it.
   CHECK(run("--help") == 0);
   CHECK_THAT(alc::nc::test::read_text(dir / "out"), Contains("--in-force") && Contains("judged against zero offsets"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("alc nc: heidenhain judges alternating work offsets against its one datum shift", "[nc][cli][safety]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_heidenhain");
+  const std::string in = (dir / "alternating.jsonl").string();
+  alc::nc::test::write_text(in, to_json_line(offsets(0.009, 0, 0, 0, 0, 1)) + "\n" +
+                                    to_json_line(offsets(-0.009, 0, 0, 0, 0, 2)) + "\n" +
+                                    to_json_line(offsets(0.009, 0, 0, 0, 0, 1)) + "\n");
+  // G10 L2 keeps G54 and G55 apart: accepted.
+  auto r = alc_test::run_alc("nc --dialect linuxcnc --in " + in, "cli_heidenhain");
+  CHECK(r.exit_code == 0);
+  CHECK_THAT(r.out, Contains("G21 G10 L2 P2 X-0.0090"));
+  // Heidenhain writes all three to the one cycle 7 shift: X would jump by 0.018 mm. Refused, nothing written.
+  r = alc_test::run_alc("nc --dialect heidenhain --in " + in, "cli_heidenhain");
+  CHECK(r.exit_code == 1);
+  CHECK(r.out.empty());
+  CHECK_THAT(r.err, Contains("command 2: refused; axis X change -0.0180 mm exceeds max_step 0.0100 mm") &&
+                        Contains("judged against the offsets of G54") && Contains("nothing written"));
+  // The same with splitting: the shift walks there in steps.
+  alc::nc::test::write_text(dir / "split.toml", "[limits]\non_step_violation = \"split\"\n");
+  r = alc_test::run_alc("nc --dialect heidenhain --machine " + (dir / "split.toml").string() + " --in " + in,
+                        "cli_heidenhain");
+  CHECK(r.exit_code == 0);
+  CHECK_THAT(r.out, Contains("7.1 X+0.0090") && Contains("7.1 X+0.0000") && Contains("7.1 X-0.0090"));
+  // One shift, one set of offsets in force.
+  const std::string state = (dir / "state.jsonl").string();
+  alc::nc::test::write_text(state, to_json_line(offsets(0.009, 0, 0, 0, 0, 1)) + "\n" +
+                                       to_json_line(offsets(-0.009, 0, 0, 0, 0, 2)) + "\n");
+  r = alc_test::run_alc("nc --dialect heidenhain --in-force " + state + " --in " + in, "cli_heidenhain");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Contains("state.jsonl") && Contains("given for G54 and G55"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("alc nc --sink spool: one whole program file per command as sent", "[nc][cli][transport]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_spool");
+  const auto spool = dir / "spool";
+  std::filesystem::create_directories(spool);
+  // Split steps are spooled one by one, each written with the machine's options (base of G55).
+  alc::nc::test::write_text(dir / "m.toml", "[limits]\non_step_violation = \"split\"\n"
+                                            "[nc]\nlinuxcnc_interval_parameter = 3010\n[nc.base.G55]\nx_mm = 100.0\n");
+  const std::vector<NcCommand> commands{offsets(0.025, 0.001, 0, 0, 0, 2), ProbeInterval{30.0, {}}};
+  std::ostringstream jsonl;
+  write_commands_jsonl(jsonl, commands);
+  alc::nc::test::write_text(dir / "in.jsonl", jsonl.str());
+  const auto r = alc_test::run_alc("nc --dialect linuxcnc --machine " + (dir / "m.toml").string() +
+                                       " --sink spool --spool-dir " + spool.string() + " --in " + (dir / "in.jsonl").string(),
+                                   "cli_spool");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.empty());
+  CHECK_THAT(r.err, Contains("4 command(s) delivered"));
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(spool)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"alc_000001.ngc", "alc_000002.ngc", "alc_000003.ngc", "alc_000004.ngc"});
+  // Each file is the whole program of one command: the steps toward 0.025 mm on G55 (base 100 mm), then #3010.
+  const MachineConfig config = read_machine_config(dir / "m.toml");
+  CommandRecorder recorder(config.limits);
+  for (const NcCommand& c : commands) recorder.record(c);
+  REQUIRE(recorder.to_send().size() == 4);
+  for (std::size_t i = 0; i < 4; ++i)
+    CHECK(alc::nc::test::read_text(spool / names[i]) == write_program(Dialect::LinuxCNC, {recorder.to_send()[i]}, config.nc));
+  CHECK_THAT(alc::nc::test::read_text(spool / "alc_000001.ngc"), Contains("G21 G10 L2 P2 X100.0083 Y0.0003"));
+  CHECK_THAT(alc::nc::test::read_text(spool / "alc_000003.ngc"), Contains("G21 G10 L2 P2 X100.0250 Y0.0010"));
+  CHECK_THAT(alc::nc::test::read_text(spool / "alc_000004.ngc"), Contains("#3010 = 30.0000"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("alc nc: a failing sink prints the undelivered commands as JSON lines and exits 1", "[nc][cli][transport]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_failing_sink");
+  alc::nc::test::write_text(dir / "split.toml", "[limits]\non_step_violation = \"split\"\n");
+  const std::vector<NcCommand> commands{offsets(0.015, -0.002, 0.001, 0.0004, -0.0003, 3), ProbeInterval{5.5, {}},
+                                        ProbeInterval{std::nullopt, {}}};
+  std::ostringstream jsonl;
+  write_commands_jsonl(jsonl, commands);
+  const std::string in = (dir / "in.jsonl").string();
+  alc::nc::test::write_text(in, jsonl.str());
+  CommandRecorder recorder(read_machine_config(dir / "split.toml").limits);
+  for (const NcCommand& c : commands) recorder.record(c);
+  const std::vector<NcCommand> to_send = recorder.to_send();  // the offsets in 2 steps, then the intervals
+  REQUIRE(to_send.size() == 4);
+  const std::string machine = " --machine " + (dir / "split.toml").string();
+
+  SECTION("spool directory missing") {
+    const auto missing = dir / "no_such_dir";
+    const auto r = alc_test::run_alc("nc --dialect fanuc" + machine + " --sink spool --spool-dir " + missing.string() +
+                                         " --in " + in,
+                                     "cli_failing_sink");
+    CHECK(r.exit_code == 1);
+    CHECK(r.out.empty());
+    CHECK_THAT(r.err, Contains("0 delivered, 4 not delivered:") && Contains("not a directory"));
+    CHECK(alc::nc::test::undelivered_commands(r.err) == to_send);  // all of them, in order
+    CHECK_FALSE(std::filesystem::exists(missing));                 // nothing created in its place
+    // They are ready to resend: the same lines into an existing spool directory.
+    alc::nc::test::write_text(dir / "resend.jsonl", [&] {
+      std::ostringstream s;
+      write_commands_jsonl(s, alc::nc::test::undelivered_commands(r.err));
+      return s.str();
+    }());
+    std::filesystem::create_directories(missing);
+    const auto again = alc_test::run_alc("nc --dialect fanuc --sink spool --spool-dir " + missing.string() + " --in " +
+                                             (dir / "resend.jsonl").string(),
+                                         "cli_failing_sink");
+    INFO(again.err);
+    CHECK(again.exit_code == 0);
+    CHECK(std::distance(std::filesystem::directory_iterator(missing), std::filesystem::directory_iterator()) == 4);
+    CHECK_THAT(alc::nc::test::read_text(missing / "alc_000004.nc"), Contains("#500=0.0000"));
+  }
+  SECTION("linuxcncrsh on a closed localhost port") {
+    // A port that was free a moment ago: bind it, read its number, close it again.
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    REQUIRE(fd >= 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
+    REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0);
+    const int port = ntohs(a.sin_port);
+    ::close(fd);
+    const auto r = alc_test::run_alc("nc --dialect linuxcnc" + machine + " --sink linuxcncrsh --port " +
+                                         std::to_string(port) + " --in " + in,
+                                     "cli_failing_sink");
+    CHECK(r.exit_code == 1);
+    CHECK(r.out.empty());
+    CHECK_THAT(r.err, Contains("0 delivered, 4 not delivered:") && Contains("cannot connect") &&
+                          Contains("127.0.0.1:" + std::to_string(port)));
+    CHECK(alc::nc::test::undelivered_commands(r.err) == to_send);
+  }
   std::filesystem::remove_all(dir);
 }
 

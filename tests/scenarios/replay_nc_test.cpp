@@ -1,16 +1,19 @@
 // The replay's NC output: load cases A–D through NcCommandObserver, the linuxcnc program checked by
-// LinuxCNC's standalone interpreter rs274, and `alc replay --nc-out` end to end.
+// LinuxCNC's standalone interpreter rs274, `alc replay --nc-out` end to end (A–C and B–C machines),
+// and `alc replay --db --machine` (the chain of the offsets stored with the predictions).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
 #include <vector>
 
+#include "../cli_support.hpp"
 #include "../nc_interface/nc_test_support.hpp"
 #include "alc/kinematics.hpp"
 #include "nc_interface/dialects.hpp"
@@ -20,6 +23,7 @@
 #include "scenarios/load_cases.hpp"
 #include "scenarios/replay.hpp"
 #include "scenarios/replay_nc.hpp"
+#include "storage/history_reader.hpp"
 
 namespace fs = std::filesystem;
 namespace sc = alc::scenarios;
@@ -80,6 +84,43 @@ std::string expected_g5x(const nc::AxisOffsets& o) {
          nc::format_nc_number(o.b_deg.value_or(0.0)) + ", " + nc::format_nc_number(o.c_deg) + ")";
 }
 
+// Every axis_offsets command within max_offset, and each within max_step of the one before.
+void check_within_limits(const std::vector<nc::AxisOffsets>& sent, const nc::SafetyLimits& limits) {
+  const nc::AxisOffsets zero;
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    INFO("offset command " << i + 1);
+    const nc::AxisOffsets& o = sent[i];
+    const nc::AxisOffsets& before = i == 0 ? zero : sent[i - 1];
+    CHECK(std::abs(o.x_mm) <= limits.max_offset.x_mm);
+    CHECK(std::abs(o.y_mm) <= limits.max_offset.y_mm);
+    CHECK(std::abs(o.z_mm) <= limits.max_offset.z_mm);
+    CHECK(std::abs(o.a_deg.value_or(0.0)) <= limits.max_offset.a_deg);
+    CHECK(std::abs(o.b_deg.value_or(0.0)) <= limits.max_offset.b_deg);
+    CHECK(std::abs(o.c_deg) <= limits.max_offset.c_deg);
+    CHECK(std::abs(o.x_mm - before.x_mm) <= limits.max_step.x_mm + 1e-12);
+    CHECK(std::abs(o.y_mm - before.y_mm) <= limits.max_step.y_mm + 1e-12);
+    CHECK(std::abs(o.z_mm - before.z_mm) <= limits.max_step.z_mm + 1e-12);
+    CHECK(std::abs(o.a_deg.value_or(0.0) - before.a_deg.value_or(0.0)) <= limits.max_step.a_deg + 1e-12);
+    CHECK(std::abs(o.b_deg.value_or(0.0) - before.b_deg.value_or(0.0)) <= limits.max_step.b_deg + 1e-12);
+    CHECK(std::abs(o.c_deg - before.c_deg) <= limits.max_step.c_deg + 1e-12);
+  }
+}
+
+
+// Runs rs274 on DIR/program.ngc: it must pass, and its G10s must set exactly `sent`, in order.
+Rs274Run check_rs274_applies(const fs::path& dir, const std::vector<nc::AxisOffsets>& sent) {
+  const Rs274Run r = run_rs274(dir);
+  INFO("rs274 log:\n" << read_text(dir / "rs274.log"));
+  REQUIRE(r.exit_code == 0);
+  const std::vector<std::string> got = g10_offsets(r.canon);
+  REQUIRE(got.size() == sent.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    INFO("G10 number " << i + 1);
+    REQUIRE(got[i] == expected_g5x(sent[i]));
+  }
+  return r;
+}
+
 double var_value(const std::string& var, int parameter) {
   std::istringstream in(var);
   int p = 0;
@@ -116,6 +157,37 @@ class PredictionTap : public sc::ReplayObserver {
   sc::NcCommandObserver& nc_;
 };
 
+struct EmittedCheck {
+  double largest = 0.0;           // [µm/m] largest non_compensable_um_per_m of the commands
+  double largest_tilt_deg = 0.0;  // [°] largest |offset| of the tilt axis (A or B)
+};
+
+// Checks every axis_offsets command `tap` saw: it has the chain's tilt axis (a_deg for A-C, b_deg for
+// B-C) and not the other; it carries the non-compensable part of compensate() for the prediction of
+// the cycle that emitted it; and that is |`uncancelled`| (the error no axis of the chain cancels) up to
+// the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
+EmittedCheck check_emitted(const PredictionTap& tap, const sc::Scenario& scenario, const sc::NcObserverOptions& options,
+                           double kinematics::LocationErrors::*uncancelled) {
+  REQUIRE(tap.emitted.size() > 10);
+  const bool a_tilt = options.chain.tilt.name == 'A';
+  EmittedCheck r;
+  for (const auto& [command, prediction] : tap.emitted) {
+    INFO("command at t = " << command.time_s.value_or(-1.0) << " s");
+    const std::optional<double>& tilt = a_tilt ? command.a_deg : command.b_deg;
+    REQUIRE(tilt.has_value());
+    CHECK_FALSE((a_tilt ? command.b_deg : command.a_deg).has_value());
+    r.largest_tilt_deg = std::max(r.largest_tilt_deg, std::abs(*tilt));
+    REQUIRE(command.non_compensable_um_per_m.has_value());
+    const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
+    const kinematics::Compensation c = kinematics::compensate(options.chain, options.pose, errors);
+    REQUIRE(c.converged);
+    CHECK(*command.non_compensable_um_per_m == c.non_compensable_um_per_m);
+    CHECK(std::abs(*command.non_compensable_um_per_m - std::abs(errors.*uncancelled)) < 1e-3);
+    r.largest = std::max(r.largest, *command.non_compensable_um_per_m);
+  }
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("replay NC output: each offset command records the non-compensable part of its prediction",
@@ -125,19 +197,8 @@ TEST_CASE("replay NC output: each offset command records the non-compensable par
   sc::NcCommandObserver observer(scenario.output_names, options);
   PredictionTap tap(observer);
   sc::replay(scenario, alc::AlcParameters{}, &tap);
-  REQUIRE(tap.emitted.size() > 10);
-  double largest = 0.0;
-  for (const auto& [command, prediction] : tap.emitted) {
-    INFO("command at t = " << command.time_s.value_or(-1.0) << " s");
-    REQUIRE(command.non_compensable_um_per_m.has_value());
-    const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
-    const kinematics::Compensation c = kinematics::compensate(options.chain, options.pose, errors);
-    REQUIRE(c.converged);
-    CHECK(*command.non_compensable_um_per_m == c.non_compensable_um_per_m);
-    // For an A-C table it is |E_B0C| up to the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
-    CHECK(std::abs(*command.non_compensable_um_per_m - std::abs(errors.b0c_um_per_m)) < 1e-3);
-    largest = std::max(largest, *command.non_compensable_um_per_m);
-  }
+  // For an A-C table it is |E_B0C| up to the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
+  const double largest = check_emitted(tap, scenario, options, &kinematics::LocationErrors::b0c_um_per_m).largest;
   CHECK(largest > 0.1);  // the case does predict a tilt that the offsets leave
   CHECK(observer.max_non_compensable_um_per_m() >= largest);
 
@@ -186,33 +247,15 @@ TEST_CASE("replay NC output: every load case's linuxcnc program passes rs274 wit
     std::optional<double> last_interval;
     for (const nc::NcCommand& c : observer.recorder().to_send()) {
       if (const auto* o = std::get_if<nc::AxisOffsets>(&c)) {
+        REQUIRE(o->a_deg.has_value());
         sent.push_back(*o);
-        CHECK(std::abs(o->x_mm) <= limits.max_offset.x_mm);
-        CHECK(std::abs(o->y_mm) <= limits.max_offset.y_mm);
-        CHECK(std::abs(o->z_mm) <= limits.max_offset.z_mm);
-        CHECK(std::abs(o->a_deg.value_or(0.0)) <= limits.max_offset.a_deg);
-        CHECK(std::abs(o->c_deg) <= limits.max_offset.c_deg);
       } else {
         last_interval = std::get<nc::ProbeInterval>(c).minutes.value_or(0.0);
       }
     }
-    for (std::size_t i = 1; i < sent.size(); ++i) {
-      CHECK(std::abs(sent[i].x_mm - sent[i - 1].x_mm) <= limits.max_step.x_mm + 1e-12);
-      CHECK(std::abs(sent[i].y_mm - sent[i - 1].y_mm) <= limits.max_step.y_mm + 1e-12);
-      CHECK(std::abs(sent[i].z_mm - sent[i - 1].z_mm) <= limits.max_step.z_mm + 1e-12);
-      CHECK(std::abs(*sent[i].a_deg - *sent[i - 1].a_deg) <= limits.max_step.a_deg + 1e-12);
-      CHECK(std::abs(sent[i].c_deg - sent[i - 1].c_deg) <= limits.max_step.c_deg + 1e-12);
-    }
+    check_within_limits(sent, limits);
 
-    const Rs274Run r = run_rs274(dir);
-    INFO("rs274 log:\n" << read_text(dir / "rs274.log"));
-    REQUIRE(r.exit_code == 0);
-    const std::vector<std::string> got = g10_offsets(r.canon);
-    REQUIRE(got.size() == sent.size());
-    for (std::size_t i = 0; i < got.size(); ++i) {
-      INFO("G10 number " << i + 1);
-      REQUIRE(got[i] == expected_g5x(sent[i]));
-    }
+    const Rs274Run r = check_rs274_applies(dir, sent);
     REQUIRE(last_interval);
     CHECK(std::abs(var_value(r.var, 3001) - std::stod(nc::format_nc_number(*last_interval))) < 1e-9);
   }
@@ -248,4 +291,115 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
   const int bad_status = std::system(bad.c_str());
   CHECK(WIFEXITED(bad_status));
   CHECK(WEXITSTATUS(bad_status) == 2);
+}
+
+
+TEST_CASE("replay NC output: a B-C machine gets b_deg, within the limits, and its non-compensable E_A0C is reported",
+          "[replay][nc]") {
+  const sc::Scenario scenario = sc::simulate_case("A").scenario;
+  sc::NcObserverOptions options;
+  options.chain = kinematics::MachineChain::bc_trunnion();  // B about y: what no axis cancels is E_A0C
+  sc::NcCommandObserver observer(scenario.output_names, options);
+  PredictionTap tap(observer);
+  sc::replay(scenario, alc::AlcParameters{}, &tap);
+  // b_deg, never a_deg; and what is left is |E_A0C| up to O(eps^2), not the A-C table's |E_B0C|.
+  const EmittedCheck c = check_emitted(tap, scenario, options, &kinematics::LocationErrors::a0c_um_per_m);
+  CHECK(c.largest > 0.1);
+  CHECK(c.largest_tilt_deg >= 1e-4);  // B does move: E_B0C is cancelled by the tilt axis here
+  CHECK(observer.max_non_compensable_um_per_m() >= c.largest);
+}
+
+TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offsets that rs274 applies",
+          "[replay][nc][cli][rs274]") {
+  const fs::path dir = alc::nc::test::fresh_dir("replay_cli_bc");
+  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n");
+  const alc_test::CliRun run = alc_test::run_alc(
+      "replay --case A --nc-out \"" + (dir / "out").string() + "\" --machine \"" + (dir / "bc.toml").string() + "\"",
+      "replay_cli_bc");
+  const std::string& err = run.err;
+  INFO(err);
+  REQUIRE(run.exit_code == 0);
+  CHECK(err.find(" 0 refused, 0 split") != std::string::npos);
+  std::istringstream jsonl(read_text(dir / "out" / "commands.jsonl"));
+  const std::vector<nc::NcCommand> commands = nc::read_commands_jsonl(jsonl, "commands.jsonl");
+  std::vector<nc::AxisOffsets> sent;
+  double largest = 0.0, largest_b = 0.0;
+  for (const nc::NcCommand& c : commands) {
+    const auto* o = std::get_if<nc::AxisOffsets>(&c);
+    if (!o) continue;
+    CHECK_FALSE(o->a_deg.has_value());
+    REQUIRE(o->b_deg.has_value());
+    REQUIRE(o->non_compensable_um_per_m.has_value());
+    largest = std::max(largest, *o->non_compensable_um_per_m);
+    largest_b = std::max(largest_b, std::abs(*o->b_deg));
+    sent.push_back(*o);
+  }
+  REQUIRE(sent.size() > 10);
+  CHECK(largest_b >= 1e-4);
+  check_within_limits(sent, nc::SafetyLimits{});  // bc.toml keeps the default limits
+  // The non-compensable part (E_A0C on this chain) is on stderr as the run's maximum.
+  const std::string tag = "largest non-compensable tilt ";
+  const auto at = err.find(tag);
+  REQUIRE(at != std::string::npos);
+  const double printed = std::stod(err.substr(at + tag.size()));
+  CHECK(printed > 1.0);
+  CHECK(printed >= largest * (1.0 - 1e-5));  // over every moment, printed to 6 digits
+
+  // LinuxCNC applies them: G10 L2 P1 … B… C… gives SET_G5X_OFFSET(1, x, y, z, 0, b, c).
+  const std::string program = read_text(dir / "out" / "program.ngc");
+  CHECK(program.find(" A") == std::string::npos);
+  CHECK(program.find(" B") != std::string::npos);
+  check_rs274_applies(dir / "out", sent);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("replay: --machine with --db alone gives the chain of the stored offsets, and --resume must repeat it",
+          "[replay][cli]") {
+  const fs::path dir = alc::nc::test::fresh_dir("replay_db_machine");
+  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n");
+  const std::string machine = " --machine \"" + (dir / "bc.toml").string() + "\"";
+  const std::string db = " --db \"" + (dir / "h.sqlite").string() + "\"";
+  const auto run = [](const std::string& args) { return alc_test::run_alc(args, "replay_db_machine"); };
+  // Without --nc-out or --db nothing would use it.
+  alc_test::CliRun r = run("replay --case A" + machine);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--machine needs --nc-out or --db") != std::string::npos);
+  r = run("replay --case A --dialect fanuc");
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--dialect needs --nc-out") != std::string::npos);
+
+  r = run("replay --case A --stop-at 60" + db + machine);
+  REQUIRE(r.exit_code == 0);
+  // A resume without the machine (or with another) would store the rest through another chain.
+  r = run("replay --case A --resume" + db);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("other parameters") != std::string::npos);
+  r = run("replay --case A --resume" + db + machine);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+
+  const alc::storage::HistoryReader reader(dir / "h.sqlite");
+  const auto runs = reader.runs();
+  REQUIRE(runs.size() == 1);
+  CHECK(runs[0].offset_names == std::vector<std::string>{"X_um", "Y_um", "Z_um", "B_urad", "C_urad"});
+  const auto predictions = reader.predictions(runs[0].run_id);
+  REQUIRE(predictions.size() > 1000);
+  std::size_t tilted = 0;
+  for (std::size_t i = 0; i < predictions.size(); i += 97) {  // before and after the stop
+    const auto& p = predictions[i];
+    INFO("prediction at t = " << p.time_s << " s");
+    const Eigen::VectorXd predicted = Eigen::Map<const Eigen::VectorXd>(p.predicted.data(),
+                                                                        static_cast<Eigen::Index>(p.predicted.size()));
+    const auto errors = kinematics::location_errors_of(runs[0].output_names, predicted);
+    const kinematics::Compensation bc = kinematics::compensate(kinematics::MachineChain::bc_trunnion(), {}, errors);
+    REQUIRE(bc.converged);
+    REQUIRE(p.offsets.size() == 5);
+    CHECK(p.offsets[3] == bc.offsets.tilt_urad);  // the B-C chain's, bit for bit
+    CHECK(p.offsets[4] == bc.offsets.table_urad);
+    const kinematics::Compensation ac = kinematics::compensate(kinematics::MachineChain::ac_trunnion(), {}, errors);
+    if (std::abs(ac.offsets.tilt_urad - bc.offsets.tilt_urad) > 1e-3) ++tilted;  // and not the A-C default's
+  }
+  CHECK(tilted > 10);
+  CHECK(predictions.back().time_s > 60 * 3600.0);
+  fs::remove_all(dir);
 }

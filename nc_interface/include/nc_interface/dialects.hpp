@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "nc_interface/commands.hpp"
+#include "nc_interface/safety.hpp"
 
 namespace alc::nc {
 
@@ -17,6 +18,10 @@ std::optional<Dialect> parse_dialect(std::string_view text);
 std::string_view dialect_name(Dialect dialect);
 // File name extension of a program: ".ngc", ".nc", ".mpf", ".h".
 std::string_view program_extension(Dialect dialect);
+// Where the dialect's axis offsets land, for the safety gate: one register per work offset
+// (linuxcnc, fanuc: G10 L2 P1…P6; sinumerik: $P_UIFR[1…6]), or one for all (heidenhain: every
+// command is the same cycle 7 datum shift of the active preset; work_offset is not written).
+OffsetRegisters offset_registers(Dialect dialect);
 
 // The operator's own setting of a work offset. G10 L2 (LinuxCNC, Fanuc) sets the whole work offset,
 // so those writers write base + compensation; Sinumerik (fine offset) and Heidenhain (datum shift)

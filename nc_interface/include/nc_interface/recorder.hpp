@@ -15,15 +15,17 @@
 
 namespace alc::nc {
 
-// Collects commands in order, passing axis offsets through a SafetyGate.
+// Collects commands in order, passing axis offsets through a SafetyGate. `registers`: where the
+// NC keeps the offsets, offset_registers(dialect) of the dialect they will be written in.
 class CommandRecorder {
  public:
-  explicit CommandRecorder(SafetyLimits limits = {});
+  explicit CommandRecorder(SafetyLimits limits = {}, OffsetRegisters registers = OffsetRegisters::PerWorkOffset);
   // Returns the decision (probe intervals are always accepted once valid; an invalid command of
   // either kind is refused with the reason in the message).
   SafetyDecision record(const NcCommand& command);
   // The offsets in force on `offsets.work_offset` before the first command (SafetyGate::set_in_force).
-  // Throws std::invalid_argument for an invalid value (validate(NcCommand)).
+  // Throws std::invalid_argument for an invalid value (validate(NcCommand)) and, with one offset
+  // register, for a second work offset.
   void set_in_force(const AxisOffsets& offsets);
   AxisOffsets current(int work_offset) const { return gate_.current(work_offset); }
   const std::vector<NcCommand>& to_send() const { return to_send_; }            // split steps expanded
@@ -48,8 +50,8 @@ struct NcOutputSummary {
 };
 
 // Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each to a temporary name then
-// renamed. Throws std::invalid_argument for bad options, std::runtime_error when a file cannot be
-// written (the message names the path).
+// renamed. The gate judges max_step per offset_registers(dialect). Throws std::invalid_argument for
+// bad options, std::runtime_error when a file cannot be written (the message names the path).
 NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
                                        const std::vector<NcCommand>& commands, const DialectOptions& options = {},
                                        const SafetyLimits& limits = {});

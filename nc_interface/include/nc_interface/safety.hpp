@@ -3,6 +3,7 @@
 // (the controllers do the same: Fanuc alarms on large steps, Sinumerik limits the compensation
 // per cycle). Every decision is returned as a value that the caller logs or stores.
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,23 +58,42 @@ struct SafetyDecision {
 // A max_offset violation is always refused (no number of steps makes it safe).
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested);
 
-// The stateful gate: remembers the offsets in force per work offset (zero at the start unless
+// Where the NC keeps the offsets that the commands write, which decides what max_step is judged
+// against.
+enum class OffsetRegisters {
+  PerWorkOffset,  // one register per work offset (G10 L2 of LinuxCNC and Fanuc, Sinumerik's settable frames)
+  Single,         // one register that every command writes, whatever its work_offset (Heidenhain's
+                  // cycle 7 datum shift of the active preset): each command is judged against the last
+                  // one let through, of any work offset
+};
+
+// The stateful gate: remembers the offsets in force per register (zero at the start unless
 // set_in_force() says otherwise) and decides each command. Probe-interval commands pass (their
 // validity is checked by the writers).
 class SafetyGate {
  public:
-  explicit SafetyGate(SafetyLimits limits = {});
+  explicit SafetyGate(SafetyLimits limits = {}, OffsetRegisters registers = OffsetRegisters::PerWorkOffset);
   SafetyDecision submit(const AxisOffsets& requested);
   // The offsets in force now on `offsets.work_offset` (e.g. read back from the machine): the next
-  // command for that work offset is judged against them. Not checked against the limits: it is
-  // what the machine has, not a request.
+  // command for that register is judged against them. Not checked against the limits: it is what
+  // the machine has, not a request. With OffsetRegisters::Single the one register can be given for
+  // one work offset only: a second work offset throws std::invalid_argument (which of them would
+  // the machine hold?).
   void set_in_force(const AxisOffsets& offsets);
-  AxisOffsets current(int work_offset) const;  // zero offsets before the first accepted command or set_in_force
+  // The offsets a command for `work_offset` is judged against: zero offsets on that work offset
+  // before the first accepted command or set_in_force. With OffsetRegisters::Single the one
+  // register, whatever `work_offset` (its work_offset is that of the command that set it).
+  AxisOffsets current(int work_offset) const;
   const SafetyLimits& limits() const { return limits_; }
+  OffsetRegisters registers() const { return registers_; }
 
  private:
+  int register_of(int work_offset) const;
+
   SafetyLimits limits_;
-  std::map<int, AxisOffsets> current_;
+  OffsetRegisters registers_;
+  std::map<int, AxisOffsets> current_;  // by register_of(work_offset)
+  std::optional<int> in_force_work_offset_;  // Single: the work offset set_in_force was given for
 };
 
 }  // namespace alc::nc
