@@ -22,6 +22,7 @@
 #include "scenarios/replay_nc.hpp"
 #include "scenarios/scenario_csv.hpp"
 #include "storage/history_reader.hpp"
+#include "storage/history_writer.hpp"
 #include "storage/schema.hpp"
 
 namespace alc::cli {
@@ -233,12 +234,25 @@ std::filesystem::path nc_dir_of(const ReplayArgs& a, const std::string& name, bo
   return several ? std::filesystem::path(a.nc_out) / name : std::filesystem::path(a.nc_out);
 }
 
-// Writes the replay's NC output and prints one summary line to stderr.
+// The sink name of the NC output in the history's nc_commands rows.
+std::string nc_sink_of(const std::filesystem::path& dir) { return "file:" + dir.string(); }
+
+// Writes the replay's NC output and prints one summary line to stderr. With a history (`writer`),
+// the run's accepted commands, committed as they were emitted, are then marked delivered (naming
+// the program file), or, when the files cannot be written, not delivered with the error, which is
+// rethrown.
 void write_nc_output(const std::filesystem::path& dir, const std::string& source, const NcSetup& nc_setup,
-                     const scenarios::NcCommandObserver& observer) {
-  const nc::NcOutputSummary s =
-      nc::write_replay_nc_output(dir, nc_setup.dialect, observer.commands(), nc_setup.config.nc,
-                                 nc_setup.config.limits);
+                     const scenarios::NcCommandObserver& observer, storage::HistoryWriter* writer = nullptr,
+                     storage::RunId run = 0) {
+  nc::NcOutputSummary s;
+  try {
+    s = nc::write_replay_nc_output(dir, nc_setup.dialect, observer.commands(), nc_setup.config.nc,
+                                   nc_setup.config.limits);
+  } catch (const std::exception& e) {
+    if (writer) writer->record_delivery(run, nc_sink_of(dir), false, e.what());
+    throw;
+  }
+  if (writer) writer->record_delivery(run, nc_sink_of(dir), true, "written to " + s.program_file.string());
   std::cerr << source << ": NC output in " << dir.string() << ": " << s.requested << " commands, " << s.refused
             << " refused, " << s.split << " split, " << s.sent << " written (" << nc::dialect_name(nc_setup.dialect)
             << ")";
@@ -260,7 +274,9 @@ bool records_offsets(const scenarios::Scenario& scenario) {
 
 // Replays one scenario, recording it in the history database if one is given.
 // Returns nullopt when the run stopped early (--stop-at).
-// With --nc-out, `nc_observer` emits the NC commands (also into the history when --db is given).
+// With --nc-out, `nc_observer` emits the NC commands (also into the history when --db is given,
+// committed before the files are written) and the NC files of what it emitted are written at the
+// end (also after --stop-at); with --db their delivery is recorded before the history is closed.
 std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const AlcParameters& params,
                                                    const std::string& source, const scenarios::Scenario& scenario,
                                                    const NcSetup& nc_setup, const std::filesystem::path& nc_dir,
@@ -273,6 +289,7 @@ std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const Al
     if (nc_observer) kill.next.push_back(nc_observer);
     scenarios::ReplaySession session(scenario, params);
     session.run(stop_s, &kill);
+    if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer);
     return session;
   }
   storage::WriterOptions options;
@@ -312,18 +329,18 @@ std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const Al
   if (!a.resume) recorder.save_snapshot(*session);  // a killed run can always resume
   kill.next.push_back(&recorder);
   if (nc_observer) {
-    nc_observer->set_history({&writer, run, "file:" + nc_dir.string(), nc_setup.dialect, nc_setup.config.nc});
+    nc_observer->set_history({&writer, run, nc_sink_of(nc_dir), nc_setup.dialect, nc_setup.config.nc});
     kill.next.push_back(nc_observer);
   }
   session->run(stop_s, &kill);
   recorder.save_snapshot(*session);
   writer.end_run(run, session->finished() ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
-  writer.close();
-  if (!session->finished()) {
+  if (!session->finished())
     std::cerr << source << ": stopped at " << a.stop_at_h << " h of scenario time (run " << run << " in " << a.db
               << "); continue with --resume\n";
-    return std::nullopt;
-  }
+  if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer, &writer, run);
+  writer.close();
+  if (!session->finished()) return std::nullopt;
   return session;
 }
 
@@ -373,7 +390,6 @@ void run_replay(const ReplayArgs& a) {
       nc_observer.emplace(scenario.output_names, scenarios::nc_observer_options(nc_setup.config));
     const auto session =
         replay_one(a, params, source, scenario, nc_setup, nc_dir, nc_observer ? &*nc_observer : nullptr);
-    if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer);
     if (!session) continue;
     reports.emplace_back(name, session->report());
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session->residuals());

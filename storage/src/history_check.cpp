@@ -115,6 +115,10 @@ CheckReport check_history(const std::filesystem::path& path) {
                 "(PARTITION BY run_id ORDER BY " + id + ") AS previous FROM " + table + ") WHERE previous > time_s",
                 table + ": time_s decreases (run, id, time_s)", report);
   }
+  // A command the safety gate refused is never handed to a sink, so it cannot have been delivered.
+  if (version >= 3)
+    report_rows(*db, "SELECT run_id, nc_command_id FROM nc_commands WHERE accepted = 0 AND delivered IS NOT NULL",
+                "nc_commands: delivered set on a command the safety gate refused (run, nc_command_id)", report);
   {
     Statement st(*db, "SELECT snapshot_id, run_id, format, is_json, payload, next_sample_index FROM controller_snapshots");
     while (st.step()) {

@@ -20,6 +20,7 @@ struct Column {
   const char* header;   // CSV header; for a vector the prefix of each channel name
   Cell cell;
   const char* channel;  // for a vector: "input", "output" or "offset"
+  int since_version = 1;  // schema version that added the column; an older file exports it empty
 };
 
 struct TableSpec {
@@ -67,7 +68,9 @@ const std::vector<TableSpec>& specs() {
        {{"run_id", "run_id", Cell::Int, nullptr}, {"time_s", "time_s", Cell::Real, nullptr},
         {"kind", "kind", Cell::Text, nullptr}, {"text", "text", Cell::Text, nullptr},
         {"sink", "sink", Cell::Text, nullptr}, {"accepted", "accepted", Cell::Bool, nullptr},
-        {"message", "message", Cell::Text, nullptr}}},
+        {"message", "message", Cell::Text, nullptr},
+        {"delivered", "delivered", Cell::Int, nullptr, 3},  // empty (NULL): not handed to a sink
+        {"delivery_message", "delivery_message", Cell::Text, nullptr, 3}}},
       {"controller_snapshots", "run_id, time_s, snapshot_id",
        {{"run_id", "run_id", Cell::Int, nullptr}, {"snapshot_id", "snapshot_id", Cell::Int, nullptr},
         {"time_s", "time_s", Cell::Real, nullptr}, {"next_sample_index", "next_sample_index", Cell::Int, nullptr},
@@ -161,7 +164,7 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
   if (!db->table_exists(spec->table)) return;  // an older schema: header only
 
   std::string sql = "SELECT run_id";
-  for (const Column& c : spec->columns) sql += std::string(", ") + c.sql;
+  for (const Column& c : spec->columns) sql += std::string(", ") + (version < c.since_version ? "NULL" : c.sql);
   sql += std::string(" FROM ") + spec->table + " ORDER BY " + spec->order;
   Statement st(*db, sql);
   std::vector<std::string> cells;

@@ -131,11 +131,17 @@ std::vector<ProbeIntervalChangeRecord> HistoryReader::probe_interval_changes(Run
 std::vector<NcCommandRecord> HistoryReader::nc_commands(RunId run) const {
   std::vector<NcCommandRecord> out;
   if (impl_->version < 2) return out;  // the table arrived with schema version 2
-  impl_->each("SELECT time_s, kind, text, sink, accepted, message FROM nc_commands WHERE run_id = ?1 "
-              "ORDER BY nc_command_id",
+  // delivered and delivery_message arrived with version 3: an older file reads as not delivered.
+  impl_->each(impl_->version < 3
+                  ? "SELECT time_s, kind, text, sink, accepted, message, NULL, '' FROM nc_commands "
+                    "WHERE run_id = ?1 ORDER BY nc_command_id"
+                  : "SELECT time_s, kind, text, sink, accepted, message, delivered, delivery_message FROM nc_commands "
+                    "WHERE run_id = ?1 ORDER BY nc_command_id",
               run, [&](Statement& st) {
                 out.push_back({run, st.column_double(0), st.column_text(1), st.column_text(2), st.column_text(3),
-                               st.column_int(4) != 0, st.column_text(5)});
+                               st.column_int(4) != 0, st.column_text(5),
+                               st.is_null(6) ? std::nullopt : std::optional<bool>(st.column_int(6) != 0),
+                               st.column_text(7)});
               });
   return out;
 }

@@ -166,8 +166,8 @@ struct HistoryWriter::Impl {
     insert_phase.emplace(*db, "INSERT INTO phase_changes (run_id, time_s, from_phase, to_phase, reason) VALUES (?1, ?2, ?3, ?4, ?5)");
     insert_interval.emplace(*db, "INSERT INTO probe_interval_changes (run_id, time_s, interval_s, reason) VALUES (?1, ?2, ?3, ?4)");
     insert_nc.emplace(*db,
-                      "INSERT INTO nc_commands (run_id, time_s, kind, text, sink, accepted, message) "
-                      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+                      "INSERT INTO nc_commands (run_id, time_s, kind, text, sink, accepted, message, delivered, "
+                      "delivery_message) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
     insert_snapshot.emplace(*db,
                             "INSERT INTO controller_snapshots (run_id, time_s, next_sample_index, format, is_json, payload) "
                             "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
@@ -317,11 +317,29 @@ void HistoryWriter::add(const ProbeIntervalChangeRecord& r) {
 void HistoryWriter::add(const NcCommandRecord& r) {
   Impl& m = live();
   m.check_time("NC command", r.time_s);
+  if (r.delivered && !r.accepted)
+    m.invalid("NC command: delivered is set, but the safety gate refused the command (nothing is handed to a sink)");
   m.counts(r.run_id);
   m.insert([&] {
-    m.insert_nc->bind(1, r.run_id).bind(2, r.time_s).bind_text(3, r.kind).bind_text(4, r.text)
-        .bind_text(5, r.sink).bind(6, r.accepted).bind_text(7, r.message).run();
+    auto& st = *m.insert_nc;
+    st.bind(1, r.run_id).bind(2, r.time_s).bind_text(3, r.kind).bind_text(4, r.text)
+        .bind_text(5, r.sink).bind(6, r.accepted).bind_text(7, r.message);
+    if (r.delivered) st.bind(8, *r.delivered);  // unbound: NULL, not handed to a sink (yet)
+    st.bind_text(9, r.delivery_message).run();
   });
+}
+
+std::size_t HistoryWriter::record_delivery(RunId run, const std::string& sink, bool delivered,
+                                           const std::string& message) {
+  Impl& m = live();
+  m.counts(run);
+  m.commit();  // the rows of the pending batch must exist before they are updated
+  Statement st(*m.db,
+               "UPDATE nc_commands SET delivered = ?1, delivery_message = ?2 "
+               "WHERE run_id = ?3 AND sink = ?4 AND accepted != 0 AND delivered IS NULL");
+  st.bind(1, delivered).bind_text(2, message).bind(3, run).bind_text(4, sink).run();
+  ++m.commits;
+  return static_cast<std::size_t>(sqlite3_changes(m.db->handle()));
 }
 
 void HistoryWriter::save_snapshot(const ControllerSnapshot& s) {

@@ -114,12 +114,21 @@ CREATE TABLE nc_commands (
 CREATE INDEX nc_commands_by_run ON nc_commands (run_id, time_s);
 )sql";
 
+// Version 3: whether the sink took each NC command. delivered: NULL = not handed to a sink (refused
+// by the gate, or not yet delivered), 1 = the sink took it, 0 = the sink failed (delivery_message:
+// the sink's error, or its note on a delivery).
+constexpr std::string_view kSchemaV3 = R"sql(
+ALTER TABLE nc_commands ADD COLUMN delivered INTEGER;
+ALTER TABLE nc_commands ADD COLUMN delivery_message TEXT NOT NULL DEFAULT '';
+)sql";
+
 }  // namespace
 
 std::string_view migration_sql(int to_version) {
   switch (to_version) {
     case 1: return kSchemaV1;
     case 2: return kSchemaV2;
+    case 3: return kSchemaV3;
     default: return {};
   }
 }

@@ -47,7 +47,7 @@ TEST_CASE("alc db info, check and export on a sound history", "[storage][cli]") 
   }
   const Outcome info = run_alc("db info " + quoted(file));
   CHECK(info.exit_code == 0);
-  CHECK_THAT(info.output, Catch::Contains("schema version: 2") && Catch::Contains("runs: 1") &&
+  CHECK_THAT(info.output, Catch::Contains("schema version: 3") && Catch::Contains("runs: 1") &&
                               Catch::Contains("time_s 0 .. 3600 (1 h)") && Catch::Contains("input_samples           61"));
   const Outcome check = run_alc("db check " + quoted(file));
   CHECK(check.exit_code == 0);
@@ -85,6 +85,30 @@ TEST_CASE("alc db check reports the project's consistency problems and exits 1",
   CHECK_THAT(check.output, Catch::Contains("input_samples: time_s not strictly increasing (run, sample, time_s): 1 3 1") &&
                                Catch::Contains("run 1: configuration is not valid JSON") &&
                                Catch::Contains("JSON payload does not parse") && Catch::Contains("3 problem(s) found"));
+}
+
+TEST_CASE("alc db check reports an NC command marked delivered although the safety gate refused it", "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "nc.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    writer.add(NcCommandRecord{id, 60.0, "offsets", "G10 L2 P1 X0.001", "file:/out", true, ""});
+    writer.add(NcCommandRecord{id, 120.0, "offsets", R"({"type":"axis_offsets","x_mm":9})", "file:/out", false,
+                               "x_mm 9 beyond max_offset 0.1"});
+    REQUIRE(writer.record_delivery(id, "file:/out", true, "written to /out/program.ngc") == 1);
+    writer.end_run(id, RunStatus::Finished);
+  }
+  const Outcome sound = run_alc("db check " + quoted(file));
+  INFO(sound.output);
+  CHECK(sound.exit_code == 0);  // delivered on the accepted row, NULL on the refused one
+  RawDb(file).exec("UPDATE nc_commands SET delivered = 0 WHERE accepted = 0");
+  const Outcome check = run_alc("db check " + quoted(file));
+  INFO(check.output);
+  CHECK(check.exit_code == 1);
+  CHECK_THAT(check.output,
+             Catch::Contains("nc_commands: delivered set on a command the safety gate refused (run, nc_command_id): 1 2") &&
+                 Catch::Contains("1 problem(s) found"));
 }
 
 TEST_CASE("alc db commands name the file and the cause for a file that is not a history", "[storage][cli]") {

@@ -1,5 +1,5 @@
 // Hostile and damaged files: each refused with an error naming the file and the cause, and no
-// existing file modified. Migration of a version-1 database to the current schema.
+// existing file modified. Migration of version-1 and version-2 databases to the current schema.
 #include <sys/mount.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -111,6 +111,16 @@ int exit_code_as_nobody(F&& attempt) {
   waitpid(child, &status, 0);
   REQUIRE(WIFEXITED(status));
   return WEXITSTATUS(status);
+}
+
+// Builds exactly what ALC of schema `version` created (migration_sql(1..version), its
+// application_id and user_version), then runs `rows` (INSERTs in that version's form).
+void old_history(const std::filesystem::path& file, int version, const std::string& rows) {
+  RawDb raw(file);
+  for (int v = 1; v <= version; ++v) REQUIRE(raw.exec(std::string(migration_sql(v))) == SQLITE_OK);
+  REQUIRE(raw.exec("PRAGMA application_id = " + std::to_string(kApplicationId) +
+                   "; PRAGMA user_version = " + std::to_string(version) + ";") == SQLITE_OK);
+  REQUIRE(raw.exec(rows) == SQLITE_OK);
 }
 
 }  // namespace
@@ -469,17 +479,12 @@ TEST_CASE("empty and missing files", "[storage]") {
 TEST_CASE("a version-1 database is migrated to the current schema with its data", "[storage]") {
   ScratchDir dir;
   const auto file = dir / "v1.sqlite";
-  {
-    // Exactly what version 1 created, with a run written in version-1 form.
-    RawDb raw(file);
-    REQUIRE(raw.exec(std::string(migration_sql(1))) == SQLITE_OK);
-    REQUIRE(raw.exec("PRAGMA application_id = " + std::to_string(kApplicationId) + "; PRAGMA user_version = 1;") ==
-            SQLITE_OK);
-    REQUIRE(raw.exec("INSERT INTO runs VALUES (1, 'case B', '{\"cp_h\":12}', 'alc 0.0.9', 1.7e9, NULL, 'stopped');"
-                     "INSERT INTO run_channels VALUES (1, 'input', 0, 'T_ENV'), (1, 'output', 0, 'E_X0C');"
-                     "INSERT INTO input_samples VALUES (1, 0, 0.0, X'0000000000003440'), (1, 1, 60.0, X'0000000000803440');"
-                     "INSERT INTO controller_snapshots VALUES (1, 1, 60.0, 2, 'test/1', 1, '{\"k\":1}');") == SQLITE_OK);
-  }
+  // A run written in version-1 form.
+  old_history(file, 1,
+              "INSERT INTO runs VALUES (1, 'case B', '{\"cp_h\":12}', 'alc 0.0.9', 1.7e9, NULL, 'stopped');"
+              "INSERT INTO run_channels VALUES (1, 'input', 0, 'T_ENV'), (1, 'output', 0, 'E_X0C');"
+              "INSERT INTO input_samples VALUES (1, 0, 0.0, X'0000000000003440'), (1, 1, 60.0, X'0000000000803440');"
+              "INSERT INTO controller_snapshots VALUES (1, 1, 60.0, 2, 'test/1', 1, '{\"k\":1}');");
   {
     const HistoryReader reader(file);  // read as it is, without migrating
     CHECK(reader.schema_version() == 1);
@@ -493,11 +498,67 @@ TEST_CASE("a version-1 database is migrated to the current schema with its data"
   }
   const HistoryReader reader(file);
   CHECK(reader.schema_version() == kSchemaVersion);
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == 3);
   const auto samples = reader.input_samples(1);
   REQUIRE(samples.size() == 2);
   CHECK(samples[1].values == std::vector<double>{20.5});  // 0x4034800000000000
   CHECK(reader.run(1)->source == "case B");
   CHECK(reader.latest_snapshot(1)->payload == R"({"k":1})");
-  CHECK(reader.nc_commands(1).size() == 1);
+  const auto commands = reader.nc_commands(1);
+  REQUIRE(commands.size() == 1);
+  CHECK_FALSE(commands[0].delivered.has_value());  // version 2's table, with version 3's columns
+  CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM nc_commands WHERE delivered IS NULL AND delivery_message = ''") == 1);
   CHECK(check_history(file).ok());
+}
+
+TEST_CASE("a version-2 database is migrated to version 3: its NC commands kept, not delivered (NULL)", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "v2.sqlite";
+  // An accepted and a refused command in version-2 form.
+  old_history(file, 2,
+              "INSERT INTO runs VALUES (1, 'case A', '{}', 'alc 0.1.0', 1.7e9, 1.7e9, 'finished');"
+              "INSERT INTO run_channels VALUES (1, 'output', 0, 'E_X0C');"
+              "INSERT INTO nc_commands VALUES (1, 1, 60.0, 'offsets', 'G10 L2 P1 X0.001', 'file:/out', 1, ''),"
+              " (2, 1, 120.0, 'offsets', '{\"x_mm\":9}', 'file:/out', 0, 'beyond max_offset');");
+  const auto check_rows = [](const std::vector<NcCommandRecord>& rows) {
+    REQUIRE(rows.size() == 2);
+    CHECK(rows[0].text == "G10 L2 P1 X0.001");
+    CHECK(rows[0].accepted);
+    CHECK(rows[1].text == R"({"x_mm":9})");
+    CHECK_FALSE(rows[1].accepted);
+    CHECK(rows[1].message == "beyond max_offset");
+    for (const auto& row : rows) {
+      CHECK_FALSE(row.delivered.has_value());
+      CHECK(row.delivery_message.empty());
+    }
+  };
+  {
+    // A reader takes the file as it is: the columns of version 3 read as not delivered.
+    const HistoryReader reader(file);
+    CHECK(reader.schema_version() == 2);
+    check_rows(reader.nc_commands(1));
+    std::ostringstream csv;
+    export_table_csv(file, "nc_commands", csv);
+    CHECK(csv.str() ==
+          "run_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
+          "1,60,offsets,G10 L2 P1 X0.001,file:/out,1,,,\n"
+          "1,120,offsets,\"{\"\"x_mm\"\":9}\",file:/out,0,beyond max_offset,,\n");
+    CHECK(check_history(file).ok());
+  }
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == 2);
+  { HistoryWriter writer(file); }  // migrates
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == 3);
+  CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM nc_commands WHERE delivered IS NULL AND delivery_message = ''") == 2);
+  const HistoryReader reader(file);
+  CHECK(reader.schema_version() == 3);
+  check_rows(reader.nc_commands(1));
+  CHECK(check_history(file).ok());
+  {
+    // The migrated rows take a delivery like new ones: the accepted one only.
+    HistoryWriter writer(file);
+    CHECK(writer.record_delivery(1, "file:/out", true, "written to /out/program.ngc") == 1);
+  }
+  const auto rows = HistoryReader(file).nc_commands(1);
+  CHECK(rows[0].delivered == std::optional<bool>(true));
+  CHECK_FALSE(rows[1].delivered.has_value());
 }

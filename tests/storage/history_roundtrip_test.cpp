@@ -51,6 +51,12 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
   PhaseChangeRecord phase{0, 23400.0, "CP", "Post-CP", "CP of 6.5 h complete"};
   ProbeIntervalChangeRecord interval{0, 23400.0, kInf, "Post-CP interval Inf"};
   NcCommandRecord nc{0, 23460.0, "offsets", "G10 L2 P1 X0.0012\n", "file:/tmp/out.nc", false, "sink full, \"retry\""};
+  // Accepted by the gate: the sink took it, the sink failed, or not yet handed over.
+  NcCommandRecord taken{0, 23460.0, "offsets", "G10 L2 P1 X0.0013\n", "file:/tmp/out", true, "", true,
+                        "written to /tmp/out/program.ngc"};
+  NcCommandRecord failed{0, 23460.0, "probe_interval", "#3001 = 30\n", "tcp:localhost:5007", true, "", false,
+                         "connection refused, \"port 5007\"\n"};
+  NcCommandRecord pending{0, 23460.0, "offsets", "G10 L2 P1 X0.0014\n", "file:/tmp/out", true, "split in 2 steps"};
   ControllerSnapshot snapshot{0, 23460.0, 391, "alc.controller/1", false, std::string("\0\x01\xff binary", 10)};
 
   RunId id = 0;
@@ -58,7 +64,7 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
     HistoryWriter writer(file);
     id = writer.begin_run(run_in);
     sample.run_id = probe.run_id = prediction.run_id = model.run_id = phase.run_id = interval.run_id = nc.run_id =
-        snapshot.run_id = id;
+        taken.run_id = failed.run_id = pending.run_id = snapshot.run_id = id;
     writer.add(sample);
     writer.add(probe);
     writer.add(prediction);
@@ -66,6 +72,9 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
     writer.add(phase);
     writer.add(interval);
     writer.add(nc);
+    writer.add(taken);
+    writer.add(failed);
+    writer.add(pending);
     writer.save_snapshot(snapshot);
     writer.end_run(id, RunStatus::Finished);
   }
@@ -128,11 +137,29 @@ TEST_CASE("every record type round-trips bit for bit", "[storage]") {
   CHECK(intervals[0].interval_s == kInf);
 
   const auto commands = reader.nc_commands(id);
-  REQUIRE(commands.size() == 1);
+  REQUIRE(commands.size() == 4);
   CHECK(commands[0].text == nc.text);
   CHECK(commands[0].sink == nc.sink);
   CHECK_FALSE(commands[0].accepted);
   CHECK(commands[0].message == nc.message);
+  CHECK_FALSE(commands[0].delivered.has_value());
+  CHECK(commands[0].delivery_message.empty());
+  const NcCommandRecord* in[] = {&nc, &taken, &failed, &pending};
+  for (std::size_t i = 0; i < commands.size(); ++i) {
+    INFO("NC command " << i);
+    CHECK(commands[i].kind == in[i]->kind);
+    CHECK(commands[i].text == in[i]->text);
+    CHECK(commands[i].sink == in[i]->sink);
+    CHECK(commands[i].accepted == in[i]->accepted);
+    CHECK(commands[i].message == in[i]->message);
+    CHECK(commands[i].delivered == in[i]->delivered);
+    CHECK(commands[i].delivery_message == in[i]->delivery_message);
+  }
+  REQUIRE(commands[1].delivered.has_value());
+  CHECK(*commands[1].delivered);
+  REQUIRE(commands[2].delivered.has_value());
+  CHECK_FALSE(*commands[2].delivered);
+  CHECK_FALSE(commands[3].delivered.has_value());
 
   const auto latest = reader.latest_snapshot(id);
   REQUIRE(latest);
@@ -159,6 +186,9 @@ TEST_CASE("records that break the contract are refused with the reason", "[stora
   auto bad_time = test::sample_at(id, 0);
   bad_time.time_s = kNaN;
   CHECK_THROWS_WITH(writer.add(bad_time), Catch::Contains("time_s must be finite"));
+  // The gate refused it, so no sink can have taken it.
+  CHECK_THROWS_WITH(writer.add(NcCommandRecord{id, 0.0, "offsets", "{}", "file:/out", false, "beyond max_offset", true, ""}),
+                    Catch::Contains("delivered is set, but the safety gate refused the command"));
   RunRecord bad_config = test::small_run();
   bad_config.config_json = "{not json";
   CHECK_THROWS_WITH(writer.begin_run(bad_config), Catch::Contains("config_json") && Catch::Contains("not valid JSON"));
@@ -168,6 +198,60 @@ TEST_CASE("records that break the contract are refused with the reason", "[stora
   writer.add(test::sample_at(id, 1));
   writer.commit();
   CHECK(HistoryReader(dir / "h.sqlite").input_samples(id).size() == 2);
+}
+
+TEST_CASE("record_delivery sets only the run's accepted, undelivered commands of that sink, committed at once",
+          "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "delivery.sqlite";
+  const std::string sink = "file:/out/A", other_sink = "file:/out/B'); DROP TABLE nc_commands; --";
+  HistoryWriter writer(file);
+  const RunId run = writer.begin_run(test::small_run());
+  const RunId other_run = writer.begin_run(test::small_run());
+  const auto command = [](RunId r, double t, const std::string& s, bool accepted) {
+    return NcCommandRecord{r, t, "offsets", "G10 L2 P1 X0.001", s, accepted, accepted ? "" : "beyond max_offset"};
+  };
+  writer.add(command(run, 60.0, sink, true));
+  writer.add(command(run, 120.0, sink, false));        // refused: stays NULL
+  writer.add(command(run, 180.0, other_sink, true));   // another sink
+  writer.add(command(other_run, 180.0, sink, true));   // another run
+  NcCommandRecord settled = command(run, 240.0, sink, true);
+  settled.delivered = false;
+  settled.delivery_message = "an earlier attempt failed";
+  writer.add(settled);                                 // already settled: left alone
+  writer.add(command(run, 300.0, sink, true));         // still pending in the open batch
+  REQUIRE(writer.pending() > 0);
+
+  CHECK(writer.record_delivery(run, sink, true, "written to /out/A/program.ngc") == 2);
+  CHECK(writer.pending() == 0);
+  {
+    // A second connection sees the update while the writer is still open: it is committed.
+    const auto rows = HistoryReader(file).nc_commands(run);
+    REQUIRE(rows.size() == 5);
+    for (std::size_t i : {0u, 4u}) {
+      INFO("row " << i);
+      CHECK(rows[i].delivered == std::optional<bool>(true));
+      CHECK(rows[i].delivery_message == "written to /out/A/program.ngc");
+    }
+    CHECK_FALSE(rows[1].delivered.has_value());
+    CHECK(rows[1].delivery_message.empty());
+    CHECK_FALSE(rows[2].delivered.has_value());
+    CHECK(rows[3].delivered == std::optional<bool>(false));
+    CHECK(rows[3].delivery_message == "an earlier attempt failed");
+    const auto others = HistoryReader(file).nc_commands(other_run);
+    REQUIRE(others.size() == 1);
+    CHECK_FALSE(others[0].delivered.has_value());
+  }
+  // Nothing left to settle for that sink; the other sink's rows are set by their own call.
+  CHECK(writer.record_delivery(run, sink, false, "too late") == 0);
+  CHECK(writer.record_delivery(run, other_sink, false, "cannot create /out/B: Permission denied") == 1);
+  const auto rows = HistoryReader(file).nc_commands(run);
+  CHECK(rows[2].delivered == std::optional<bool>(false));
+  CHECK(rows[2].delivery_message == "cannot create /out/B: Permission denied");
+  CHECK(rows[0].delivery_message == "written to /out/A/program.ngc");
+  CHECK_THROWS_WITH(writer.record_delivery(run + 7, sink, true, ""), Catch::Contains("does not exist"));
+  writer.close();
+  CHECK(check_history(file).ok());
 }
 
 TEST_CASE("records are committed one transaction per batch", "[storage]") {
@@ -306,8 +390,11 @@ TEST_CASE("export writes CSV with one column per channel and quotes text", "[sto
     writer.add(ProbeMeasurementRecord{id, 60.0, "CP", {1.5, kNaN}, {0.0, 0.25}, 1.0});
     writer.add(PhaseChangeRecord{id, 60.0, "CP", "NG", "residual, \"big\"\nsecond line"});
     writer.add(ProbeIntervalChangeRecord{id, 60.0, kInf, "none"});
+    writer.add(NcCommandRecord{id, 60.0, "offsets", "G10", "file:/o", true, "", true, "written to /o/program.ngc"});
+    writer.add(NcCommandRecord{id, 60.0, "offsets", "G10", "file:/o", true, "", false, "disk, full"});
+    writer.add(NcCommandRecord{id, 60.0, "offsets", "{}", "file:/o", false, "refused"});
   }
-  std::ostringstream samples, probes, phases, intervals;
+  std::ostringstream samples, probes, phases, intervals, commands;
   export_table_csv(file, "input_samples", samples);
   CHECK(samples.str() == "run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,20,21.5,0\n");
   export_table_csv(file, "probe_measurements", probes);
@@ -318,6 +405,12 @@ TEST_CASE("export writes CSV with one column per channel and quotes text", "[sto
   CHECK(phases.str() == "run_id,time_s,from_phase,to_phase,reason\n1,60,CP,NG,\"residual, \"\"big\"\"\nsecond line\"\n");
   export_table_csv(file, "probe_interval_changes", intervals);
   CHECK(intervals.str() == "run_id,time_s,interval_s,reason\n1,60,inf,none\n");
+  export_table_csv(file, "nc_commands", commands);
+  CHECK(commands.str() ==
+        "run_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
+        "1,60,offsets,G10,file:/o,1,,1,written to /o/program.ngc\n"
+        "1,60,offsets,G10,file:/o,1,,0,\"disk, full\"\n"
+        "1,60,offsets,{},file:/o,0,refused,,\n");
 
   std::ostringstream sink;
   CHECK_THROWS_WITH(export_table_csv(file, "runs; DROP TABLE runs", sink), Catch::Contains("no table 'runs; DROP TABLE runs'"));

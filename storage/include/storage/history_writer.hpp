@@ -6,11 +6,12 @@
 //   RunId run = writer.begin_run(run_record);      // committed at once
 //   writer.add(sample); writer.add(prediction); …  // buffered in the open transaction
 //   writer.commit();                               // before acting on what was accepted
+//   writer.record_delivery(run, sink, ok, message); // after handing NC commands to the sink
 //   writer.save_snapshot(snapshot);                // stored and committed at once
 //   writer.end_run(run, RunStatus::Finished);      // committed at once
-// Records are committed every `batch_size` records, on commit(), save_snapshot(), end_run() and
-// on destruction. A process killed between commits loses only the uncommitted batch; the file
-// stays consistent (WAL journal).
+// Records are committed every `batch_size` records, on commit(), save_snapshot(), end_run(),
+// record_delivery() and on destruction. A process killed between commits loses only the
+// uncommitted batch; the file stays consistent (WAL journal).
 //
 // Resume: `ResumePoint p = writer.resume_run(run)` returns the latest snapshot and deletes every
 // record of the run written after it (time_s > snapshot.time_s, sample_index >= next_sample_index),
@@ -71,7 +72,13 @@ class HistoryWriter {
   void add(const ModelParameterSetRecord& record);
   void add(const PhaseChangeRecord& record);
   void add(const ProbeIntervalChangeRecord& record);
-  void add(const NcCommandRecord& record);
+  void add(const NcCommandRecord& record);  // delivered must be empty when accepted is false
+
+  // Records whether `sink` took the NC commands of `run`: sets delivered and delivery_message on the
+  // run's accepted nc_commands rows of that sink whose delivered is still NULL (refused rows and
+  // rows already settled are left alone). Commits the pending batch first, so the commands added so
+  // far are covered, and the update at once. Returns the number of rows set.
+  std::size_t record_delivery(RunId run, const std::string& sink, bool delivered, const std::string& message);
 
   // Stores the snapshot and commits everything pending with it.
   void save_snapshot(const ControllerSnapshot& snapshot);

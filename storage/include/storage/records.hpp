@@ -92,8 +92,9 @@ struct ProbeIntervalChangeRecord {
   std::string reason;
 };
 
-// An NC command emitted for a sink (schema version 2), stored when the safety gate has judged it and
-// before it is handed to the sink. Delivery itself is not recorded (docs/storage.md, nc_commands).
+// An NC command emitted for a sink, stored when the safety gate has judged it and before it is
+// handed to the sink (schema version 2); whether the sink took it is set afterwards by
+// HistoryWriter::record_delivery (schema version 3; docs/storage.md, nc_commands).
 struct NcCommandRecord {
   RunId run_id = 0;
   double time_s = 0.0;                      // [s]
@@ -103,6 +104,9 @@ struct NcCommandRecord {
   bool accepted = false;                    // the safety gate passed it (possibly split into steps), so it
                                             // is handed to the sink; false: refused, nothing sent
   std::string message;                      // the gate's reason for a refusal or its note on a split, else ""
+  std::optional<bool> delivered = std::nullopt;  // true: the sink took it; false: the sink failed; empty:
+                                                 // not handed to a sink (refused, or not yet delivered)
+  std::string delivery_message = "";             // the sink's error, or its note on the delivery (file written)
 };
 
 // time_s of a snapshot taken before the controller saw its first sample (replay saves one at the
