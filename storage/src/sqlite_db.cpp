@@ -85,8 +85,27 @@ std::vector<std::string> tables_of_version(int version) {
   return tables;
 }
 
-// An ALC file must hold every table of its schema version as a real table (not a view), or it was
-// not written by ALC and nothing may be done to it.
+// Columns that the ALTER TABLE … ADD COLUMN of migration_sql(1..version) add, as (table, column).
+std::vector<std::pair<std::string, std::string>> added_columns_of_version(int version) {
+  std::vector<std::pair<std::string, std::string>> columns;
+  static constexpr std::string_view kAlter = "ALTER TABLE ";
+  static constexpr std::string_view kAdd = " ADD COLUMN ";
+  for (int v = 1; v <= version; ++v) {
+    const std::string_view sql = migration_sql(v);
+    for (auto at = sql.find(kAlter); at != std::string_view::npos; at = sql.find(kAlter, at + 1)) {
+      const auto table_start = at + kAlter.size();
+      const auto add = sql.find(kAdd, table_start);
+      if (add == std::string_view::npos) continue;
+      const auto column_start = add + kAdd.size();
+      const auto column_end = sql.find_first_of(" ;\n", column_start);
+      columns.emplace_back(sql.substr(table_start, add - table_start), sql.substr(column_start, column_end - column_start));
+    }
+  }
+  return columns;
+}
+
+// An ALC file must hold every table of its schema version as a real table (not a view), with the
+// columns that migrations added, or it was not written by ALC and nothing may be done to it.
 void require_tables(Database& db, const fs::path& file, int version) {
   std::string missing;
   for (const std::string& table : tables_of_version(version))
@@ -95,6 +114,12 @@ void require_tables(Database& db, const fs::path& file, int version) {
     throw StorageError(StorageErrorKind::Corrupt, file,
                        "ALC's application_id and schema version " + std::to_string(version) +
                            ", but the table(s) " + missing + " are missing; left untouched");
+  for (const auto& [table, column] : added_columns_of_version(version))
+    if (!db.column_exists(table, column)) missing += (missing.empty() ? "" : ", ") + table + "." + column;
+  if (!missing.empty())
+    throw StorageError(StorageErrorKind::Corrupt, file,
+                       "ALC's application_id and schema version " + std::to_string(version) +
+                           ", but the column(s) " + missing + " are missing; left untouched");
   // ALC's schema has no triggers and no views: one in the file would run its own SQL on our writes.
   Statement extra(db, "SELECT type, name FROM sqlite_schema WHERE type IN ('trigger', 'view') ORDER BY name LIMIT 5");
   std::string found;
@@ -207,6 +232,12 @@ std::string Database::query_text(std::string_view sql) {
 bool Database::table_exists(std::string_view table) {
   Statement st(*this, "SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = ?1");
   st.bind_text(1, table);
+  return st.step();
+}
+
+bool Database::column_exists(std::string_view table, std::string_view column) {
+  Statement st(*this, "SELECT 1 FROM pragma_table_info(?1) WHERE name = ?2");
+  st.bind_text(1, table).bind_text(2, column);
   return st.step();
 }
 

@@ -65,6 +65,7 @@ class Database {
   std::int64_t query_int(std::string_view sql);
   std::string query_text(std::string_view sql);
   bool table_exists(std::string_view table);
+  bool column_exists(std::string_view table, std::string_view column);
   // Throws a StorageError for result code `rc` of an operation described by `what`.
   [[noreturn]] void fail(int rc, const std::string& what);
 

@@ -248,6 +248,17 @@ TEST_CASE("a file with ALC's application_id but without ALC's tables is refused 
     }
     check_refused(file, StorageErrorKind::Corrupt, "the table(s) runs, nc_commands are missing");
   }
+  SECTION("version 3 claimed, but the columns that migration 3 adds are missing") {
+    const auto file = dir / "v3-without-columns.sqlite";
+    {
+      RawDb raw(file);
+      REQUIRE(raw.exec(std::string(migration_sql(1)) + std::string(migration_sql(2)) +
+                       "PRAGMA application_id = " + std::to_string(kApplicationId) + "; PRAGMA user_version = 3;") ==
+              SQLITE_OK);
+    }
+    check_refused(file, StorageErrorKind::Corrupt,
+                  "the column(s) nc_commands.delivered, nc_commands.delivery_message are missing");
+  }
 }
 
 // As check_refused, for a file in WAL mode: SQLite's first read of it creates empty -wal/-shm files
