@@ -265,13 +265,6 @@ void write_nc_output(const std::filesystem::path& dir, const std::string& source
   std::cerr << "\n";
 }
 
-// The history stores the offsets derived from each prediction when an output is a C-axis error.
-bool records_offsets(const scenarios::Scenario& scenario) {
-  for (const auto& name : scenario.output_names)
-    if (kinematics::location_error_field(name) >= 0) return true;
-  return false;
-}
-
 // Replays one scenario, recording it in the history database if one is given.
 // Returns nullopt when the run stopped early (--stop-at).
 // With --nc-out, `nc_observer` emits the NC commands (also into the history when --db is given,
@@ -320,12 +313,13 @@ std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const Al
     r.software_version = std::string("alc ") + ALC_VERSION;
     r.input_names = scenario.input_names;
     r.output_names = scenario.output_names;
-    if (records_offsets(scenario)) r.offset_names = scenarios::HistoryRecorder::offset_names(nc_setup.config.chain);
+    // The offsets derived from each prediction, when an output is a C-axis error (as alc bench).
+    r.offset_names = scenarios::HistoryRecorder::offset_names(nc_setup.config.chain, scenario.output_names);
     run = writer.begin_run(r);
     session.emplace(scenario, params);
   }
   scenarios::HistoryRecorder recorder(writer, run, session->controller());
-  if (records_offsets(scenario)) recorder.record_offsets(nc_setup.config.chain, scenario.output_names);
+  recorder.record_offsets(nc_setup.config.chain, scenario.output_names);  // no-op without a C-axis error
   if (!a.resume) recorder.save_snapshot(*session);  // a killed run can always resume
   kill.next.push_back(&recorder);
   if (nc_observer) {

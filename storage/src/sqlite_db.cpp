@@ -70,37 +70,37 @@ std::string file_uri(const fs::path& file, const char* query) {
   return uri + "?" + query;
 }
 
-// Tables that migration_sql(1..version) create (read from the released DDL, so never out of date).
-std::vector<std::string> tables_of_version(int version) {
-  std::vector<std::string> tables;
-  static constexpr std::string_view kCreate = "CREATE TABLE ";
+// Calls `f(sql, at)` for every occurrence of `keyword` in migration_sql(1..version), `at` just
+// after it: the released DDL is the one source of what a file of that version holds.
+template <class F>
+void each_in_migrations(int version, std::string_view keyword, F f) {
   for (int v = 1; v <= version; ++v) {
     const std::string_view sql = migration_sql(v);
-    for (auto at = sql.find(kCreate); at != std::string_view::npos; at = sql.find(kCreate, at + 1)) {
-      const auto start = at + kCreate.size();
-      const auto end = sql.find_first_of(" (\n", start);
-      tables.emplace_back(sql.substr(start, end - start));
-    }
+    for (auto at = sql.find(keyword); at != std::string_view::npos; at = sql.find(keyword, at + 1))
+      f(sql, at + keyword.size());
   }
+}
+
+// Tables that migration_sql(1..version) create.
+std::vector<std::string> tables_of_version(int version) {
+  std::vector<std::string> tables;
+  each_in_migrations(version, "CREATE TABLE ", [&](std::string_view sql, std::size_t start) {
+    tables.emplace_back(sql.substr(start, sql.find_first_of(" (\n", start) - start));
+  });
   return tables;
 }
 
 // Columns that the ALTER TABLE … ADD COLUMN of migration_sql(1..version) add, as (table, column).
 std::vector<std::pair<std::string, std::string>> added_columns_of_version(int version) {
   std::vector<std::pair<std::string, std::string>> columns;
-  static constexpr std::string_view kAlter = "ALTER TABLE ";
   static constexpr std::string_view kAdd = " ADD COLUMN ";
-  for (int v = 1; v <= version; ++v) {
-    const std::string_view sql = migration_sql(v);
-    for (auto at = sql.find(kAlter); at != std::string_view::npos; at = sql.find(kAlter, at + 1)) {
-      const auto table_start = at + kAlter.size();
-      const auto add = sql.find(kAdd, table_start);
-      if (add == std::string_view::npos) continue;
-      const auto column_start = add + kAdd.size();
-      const auto column_end = sql.find_first_of(" ;\n", column_start);
-      columns.emplace_back(sql.substr(table_start, add - table_start), sql.substr(column_start, column_end - column_start));
-    }
-  }
+  each_in_migrations(version, "ALTER TABLE ", [&](std::string_view sql, std::size_t table_start) {
+    const auto add = sql.find(kAdd, table_start);
+    if (add == std::string_view::npos) return;
+    const auto column_start = add + kAdd.size();
+    const auto column_end = sql.find_first_of(" ;\n", column_start);
+    columns.emplace_back(sql.substr(table_start, add - table_start), sql.substr(column_start, column_end - column_start));
+  });
   return columns;
 }
 
