@@ -8,7 +8,6 @@
 #include <random>
 
 #include "alc/kinematics.hpp"
-#include "nc_interface/commands.hpp"
 
 using namespace alc::kinematics;
 using Catch::Matchers::WithinAbs;
@@ -19,7 +18,7 @@ constexpr double kHandTolUm = 1e-6;        // [µm] agreement with a hand deriva
 constexpr double kHandTolUrad = 1e-6;      // [µrad]
 constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
-// The seed can be changed without recompiling: ALC_TEST_SEED=123 ./test_nc_interface
+// The seed can be changed without recompiling: ALC_TEST_SEED=123 ./test_alc
 unsigned test_seed() {
   const char* s = std::getenv("ALC_TEST_SEED");
   return s ? static_cast<unsigned>(std::strtoul(s, nullptr, 10)) : 20261122u;
@@ -157,20 +156,3 @@ TEST_CASE("kinematics: validate names the broken field and value", "[kinematics]
                                     Catch::Matchers::Contains("[2, 0, 0]"));
 }
 
-TEST_CASE("kinematics: compensation to axis offset command (um -> mm, urad -> deg)", "[kinematics]") {
-  constexpr double kTolDeg = 1e-12;  // [°]
-  LocationErrors err;
-  err.c0c_um_per_m = 30.0;
-  err.x0c_um = 12.0;
-  const Compensation ac = compensate(MachineChain::ac_trunnion(), {0.0, 0.0}, err);
-  const alc::nc::AxisOffsets o = alc::nc::to_axis_offsets(ac, MachineChain::ac_trunnion(), 2);
-  REQUIRE_THAT(o.c_deg, WithinAbs(-30e-6 * kDegPerRad, kTolDeg));
-  REQUIRE_THAT(o.x_mm, WithinAbs(ac.offsets.x_um / 1000.0, 1e-15));
-  REQUIRE(o.a_deg.has_value());
-  REQUIRE_FALSE(o.b_deg.has_value());
-  REQUIRE(o.work_offset == 2);
-  const Compensation bc = compensate(MachineChain::bc_trunnion(), {10.0, 0.0}, err);
-  const alc::nc::AxisOffsets ob = alc::nc::to_axis_offsets(bc, MachineChain::bc_trunnion());
-  REQUIRE_FALSE(ob.a_deg.has_value());
-  REQUIRE(ob.b_deg.has_value());
-}
