@@ -10,9 +10,8 @@
 
 #include "commands.hpp"
 #include "nc_interface/machine_config.hpp"
+#include "runtime/replay.hpp"
 #include "scenarios/load_cases.hpp"
-#include "scenarios/replay_history.hpp"
-#include "storage/history_writer.hpp"
 
 namespace alc::cli {
 
@@ -40,12 +39,14 @@ std::pair<double, double> best_replay(const scenarios::Scenario& scenario, const
   double ident = 0.0;
   for (int i = 0; i < repeat; ++i) {
     const double start = now_s();
-    scenarios::ReplaySession session(scenario, params);
-    session.run();
+    runtime::ReplayOptions o;
+    o.parameters = params;
+    runtime::Replay replay(scenario, std::move(o));
+    replay.run();
     const double elapsed = now_s() - start;
     if (elapsed < best) {
       best = elapsed;
-      ident = session.report().identification_s;
+      ident = replay.report().identification_s;
     }
   }
   return {best, ident};
@@ -57,27 +58,17 @@ Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::fi
   AlcParameters full;
   full.structure_refresh = 1.0;  // the baseline: the structure searched at every update
   t.full_search_s = best_replay(scenario, full, repeat).first;
-  // What `alc replay --db` records without --machine: with every prediction the axis offsets of the
-  // default machine chain (kinematics per sample), so the db/plain ratio is that of the real command.
-  const kinematics::MachineChain chain = nc::MachineConfig{}.chain;
+  // What `alc replay --db` records without --machine (the same runtime::Replay): with every
+  // prediction the axis offsets of the default machine chain, so db/plain is that of the real command.
   for (int i = 0; i < repeat; ++i) {
     const auto db = dir / ("bench-" + std::to_string(i) + ".sqlite");
     const double start = now_s();
     {
-      storage::HistoryWriter writer(db);
-      storage::RunRecord r;
-      r.source = "bench";
-      r.input_names = scenario.input_names;
-      r.output_names = scenario.output_names;
-      r.offset_names = scenarios::HistoryRecorder::offset_names(chain, scenario.output_names);
-      const auto run = writer.begin_run(r);
-      scenarios::ReplaySession session(scenario, AlcParameters{});
-      scenarios::HistoryRecorder recorder(writer, run, session.controller());
-      recorder.record_offsets(chain, scenario.output_names);
-      recorder.save_snapshot(session);
-      session.run(kInf, &recorder);
-      recorder.save_snapshot(session);
-      writer.end_run(run, storage::RunStatus::Finished);
+      runtime::ReplayOptions o;
+      o.source = "bench";
+      o.db = db;
+      runtime::Replay replay(scenario, std::move(o));
+      replay.run();
     }
     t.with_history_s = std::min(t.with_history_s, now_s() - start);
     std::filesystem::remove(db);

@@ -16,14 +16,9 @@
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/machine_config.hpp"
 #include "nc_interface/recorder.hpp"
+#include "runtime/replay.hpp"
 #include "scenarios/load_cases.hpp"
-#include "scenarios/replay.hpp"
-#include "scenarios/replay_history.hpp"
-#include "scenarios/replay_nc.hpp"
 #include "scenarios/scenario_csv.hpp"
-#include "storage/history_reader.hpp"
-#include "storage/history_writer.hpp"
-#include "storage/schema.hpp"
 
 namespace alc::cli {
 
@@ -68,11 +63,6 @@ struct ReplayArgs {
   std::string machine;         // machine config (TOML), "" = built-in defaults
 };
 
-// The NC side of a replay: machine config, dialect and where to write.
-struct NcSetup {
-  nc::MachineConfig config;
-  nc::Dialect dialect = nc::Dialect::LinuxCNC;
-};
 
 AlcParameters parameters_from(const ReplayArgs& a) {
   AlcParameters p;
@@ -104,7 +94,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   return p;
 }
 
-nlohmann::json outputs_json(const std::vector<scenarios::OutputIndicators>& outs) {
+nlohmann::json outputs_json(const std::vector<runtime::OutputIndicators>& outs) {
   nlohmann::json j = nlohmann::json::object();
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   for (const auto& o : outs)
@@ -113,7 +103,7 @@ nlohmann::json outputs_json(const std::vector<scenarios::OutputIndicators>& outs
   return j;
 }
 
-nlohmann::json report_json(const scenarios::ReplayReport& r) {
+nlohmann::json report_json(const runtime::ReplayReport& r) {
   return {{"outputs", outputs_json(r.outputs)},
           {"Pd", r.Pd},
           {"M", r.M},
@@ -132,7 +122,7 @@ std::string fmt(double v, int precision = 2) {
   return buf;
 }
 
-void print_report(std::ostream& os, const std::string& title, const scenarios::ReplayReport& r) {
+void print_report(std::ostream& os, const std::string& title, const runtime::ReplayReport& r) {
   os << title << "\n";
   os << "  duration " << fmt(r.duration_s / 3600.0, 1) << " h, CP ended at "
      << (std::isfinite(r.cp_end_s) ? fmt(r.cp_end_s / 3600.0, 2) + " h" : std::string("never")) << ", M = " << r.M
@@ -157,7 +147,7 @@ void print_report(std::ostream& os, const std::string& title, const scenarios::R
      << fmt(r.mean_p99_uncompensated(ErrorKind::Angular)) << " µm/m\n";
 }
 
-double mean_over(const std::vector<scenarios::OutputIndicators>& outs, double scenarios::OutputIndicators::*f) {
+double mean_over(const std::vector<runtime::OutputIndicators>& outs, double runtime::OutputIndicators::*f) {
   double s = 0.0;
   int n = 0;
   for (const auto& o : outs)
@@ -170,16 +160,16 @@ double mean_over(const std::vector<scenarios::OutputIndicators>& outs, double sc
 
 // One line per case, like Tab. 3 of seed 004 (SMAPE, RMSE, PV averaged over all errors; P99 over
 // the linear errors), with the baseline and the uncompensated P99 beside it.
-void print_table3(std::ostream& os, const std::vector<std::pair<std::string, scenarios::ReplayReport>>& rows) {
+void print_table3(std::ostream& os, const std::vector<std::pair<std::string, runtime::ReplayReport>>& rows) {
   char line[256];
   std::snprintf(line, sizeof line, "%-5s %9s %9s %7s %9s %11s %7s %5s %4s %4s %14s %12s\n", "case", "SMAPE[%]",
                 "RMSE[µm]", "PV[%]", "P99[µm]", "P99ang", "Pd[%]", "M", "NG", "upd", "baseline P99", "uncomp P99");
   os << line;
   for (const auto& [name, r] : rows) {
     std::snprintf(line, sizeof line, "%-5s %9s %9s %7s %9s %11s %7s %5d %4d %4d %14s %12s\n", name.c_str(),
-                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::SMAPE)).c_str(),
-                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::RMSE)).c_str(),
-                  fmt(mean_over(r.outputs, &scenarios::OutputIndicators::PV)).c_str(),
+                  fmt(mean_over(r.outputs, &runtime::OutputIndicators::SMAPE)).c_str(),
+                  fmt(mean_over(r.outputs, &runtime::OutputIndicators::RMSE)).c_str(),
+                  fmt(mean_over(r.outputs, &runtime::OutputIndicators::PV)).c_str(),
                   fmt(r.mean_p99(ErrorKind::Linear)).c_str(), fmt(r.mean_p99(ErrorKind::Angular)).c_str(),
                   fmt(r.Pd).c_str(), r.M, r.ng_phases, r.updates, fmt(r.mean_p99(ErrorKind::Linear, true)).c_str(),
                   fmt(r.mean_p99_uncompensated(ErrorKind::Linear)).c_str());
@@ -187,45 +177,21 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, sce
   }
 }
 
-// The run's configuration as stored in the history (and compared on --resume).
-std::string config_json(const ReplayArgs& a, const std::string& source) {
-  auto tab1 = [](const std::string& text) { return text; };
-  nlohmann::json j = {{"source", source},
-                      {"cp_h", tab1(a.cp)},
-                      {"cp_interval_min", tab1(a.cp_interval)},
-                      {"interval_h", tab1(a.interval)},
-                      {"ng_interval_min", tab1(a.ng_interval)},
-                      {"ng_meas", tab1(a.ng_meas)},
-                      {"update_h", tab1(a.update)},
-                      {"acl_lin_um", a.acl_lin},
-                      {"acl_ang_um_per_m", a.acl_ang},
-                      {"window_h", a.window},
-                      {"half_life_h", a.half_life},
-                      {"method", a.method},
-                      {"max_order", a.max_order},
-                      {"refit_on_probe", !a.no_refit},
-                      {"confirm_breach", !a.no_refit && !a.no_confirm},
-                      {"structure_refresh", a.structure_refresh}};
+// More of the run's identity than the parameters (which are stored as parsed values): what the
+// parameters do not say but the results depend on.
+nlohmann::json identity_of(const ReplayArgs& a) {
+  nlohmann::json j = nlohmann::json::object();
   if (a.seed_given) j["seed"] = a.seed;
   if (!a.machine.empty()) j["machine"] = a.machine;  // its chain gives the stored offsets: --resume must repeat it
-  if (!a.since.empty()) j["since_h"] = a.since;  // only when given: histories of earlier versions resume
-  return j.dump();
+  return j;
 }
 
-// Forwards to the history recorder and the NC observer; kills the process at a scenario time
-// (fault injection).
-struct KillSwitch : scenarios::ReplayObserver {
-  std::vector<scenarios::ReplayObserver*> next;
+// Fault injection for tests of crash safety: SIGKILLs the process after the first sample at or past
+// a scenario time (after the history's observers have seen it).
+struct KillSwitch : runtime::Observer {
   double kill_at_s = kInf;
-  void on_sample(std::size_t row, double t, const Eigen::VectorXd& u, const ControllerOutput& out) override {
-    for (auto* o : next) o->on_sample(row, t, u, out);
-  }
-  void on_probe(std::size_t row, const ProbeMeasurement& p, const ControllerOutput& out) override {
-    for (auto* o : next) o->on_probe(row, p, out);
-  }
-  void on_row_done(const scenarios::ReplaySession& session) override {
-    for (auto* o : next) o->on_row_done(session);
-    if (session.controller().state().now_s >= kill_at_s) std::raise(SIGKILL);
+  void on_sample_done(const runtime::Sample&, const Controller& controller, std::int64_t) override {
+    if (controller.state().now_s >= kill_at_s) std::raise(SIGKILL);
   }
 };
 
@@ -234,28 +200,11 @@ std::filesystem::path nc_dir_of(const ReplayArgs& a, const std::string& name, bo
   return several ? std::filesystem::path(a.nc_out) / name : std::filesystem::path(a.nc_out);
 }
 
-// The sink name of the NC output in the history's nc_commands rows.
-std::string nc_sink_of(const std::filesystem::path& dir) { return "file:" + dir.string(); }
-
-// Writes the replay's NC output and prints one summary line to stderr. With a history (`writer`),
-// the run's accepted commands, committed as they were emitted, are then marked delivered (naming
-// the program file), or, when the files cannot be written, not delivered with the error, which is
-// rethrown.
-void write_nc_output(const std::filesystem::path& dir, const std::string& source, const NcSetup& nc_setup,
-                     const scenarios::NcCommandObserver& observer, storage::HistoryWriter* writer = nullptr,
-                     storage::RunId run = 0) {
-  nc::NcOutputSummary s;
-  try {
-    s = nc::write_replay_nc_output(dir, nc_setup.dialect, observer.commands(), nc_setup.config.nc,
-                                   nc_setup.config.limits);
-  } catch (const std::exception& e) {
-    if (writer) writer->record_delivery(run, nc_sink_of(dir), false, e.what());
-    throw;
-  }
-  if (writer) writer->record_delivery(run, nc_sink_of(dir), true, "written to " + s.program_file.string());
+// One summary line of the NC output on stderr.
+void print_nc_summary(const std::string& source, const std::filesystem::path& dir, nc::Dialect dialect,
+                      const runtime::NcCommandObserver& observer, const nc::NcOutputSummary& s) {
   std::cerr << source << ": NC output in " << dir.string() << ": " << s.requested << " commands, " << s.refused
-            << " refused, " << s.split << " split, " << s.sent << " written (" << nc::dialect_name(nc_setup.dialect)
-            << ")";
+            << " refused, " << s.split << " split, " << s.sent << " written (" << nc::dialect_name(dialect) << ")";
   if (!observer.maps_any_error()) std::cerr << "; no output named E_X0C … E_C0C, so no axis offsets";
   else
     std::cerr << "; largest non-compensable tilt " << observer.max_non_compensable_um_per_m()
@@ -263,79 +212,6 @@ void write_nc_output(const std::filesystem::path& dir, const std::string& source
   if (observer.not_converged())
     std::cerr << "; " << observer.not_converged() << " moments without a converged compensation";
   std::cerr << "\n";
-}
-
-// Replays one scenario, recording it in the history database if one is given.
-// Returns nullopt when the run stopped early (--stop-at).
-// With --nc-out, `nc_observer` emits the NC commands (also into the history when --db is given,
-// committed before the files are written) and the NC files of what it emitted are written at the
-// end (also after --stop-at); with --db their delivery is recorded before the history is closed.
-std::optional<scenarios::ReplaySession> replay_one(const ReplayArgs& a, const AlcParameters& params,
-                                                   const std::string& source, const scenarios::Scenario& scenario,
-                                                   const NcSetup& nc_setup, const std::filesystem::path& nc_dir,
-                                                   scenarios::NcCommandObserver* nc_observer) {
-  const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
-  const double stop_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
-  KillSwitch kill;
-  kill.kill_at_s = std::isfinite(a.kill_at_h) ? t0 + a.kill_at_h * 3600.0 : kInf;
-  if (a.db.empty()) {
-    if (nc_observer) kill.next.push_back(nc_observer);
-    scenarios::ReplaySession session(scenario, params);
-    session.run(stop_s, &kill);
-    if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer);
-    return session;
-  }
-  storage::WriterOptions options;
-  options.create_directories = true;
-  storage::HistoryWriter writer(a.db, options);
-  const std::string config = config_json(a, source);
-  storage::RunId run = 0;
-  std::optional<scenarios::ReplaySession> session;
-  if (a.resume) {
-    std::optional<storage::RunRecord> found;
-    for (const auto& r : storage::HistoryReader(a.db).runs())
-      if (r.source == source && (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
-        found = r;
-    if (!found) throw UsageError(a.db + ": no unfinished run of '" + source + "' to resume");
-    if (found->config_json != config)
-      throw UsageError(a.db + ": run " + std::to_string(found->run_id) + " of '" + source +
-                       "' was started with other parameters: " + found->config_json + "; given: " + config);
-    run = found->run_id;
-    const storage::ResumePoint point = writer.resume_run(run);
-    if (point.snapshot.format != scenarios::kReplayStateFormat)
-      throw std::runtime_error(a.db + ": run " + std::to_string(run) + " has a snapshot of format '" +
-                               point.snapshot.format + "', expected " + scenarios::kReplayStateFormat);
-    session.emplace(scenario, params, scenarios::decode_replay_state(point.snapshot.payload));
-  } else {
-    storage::RunRecord r;
-    r.source = source;
-    r.config_json = config;
-    r.software_version = std::string("alc ") + ALC_VERSION;
-    r.input_names = scenario.input_names;
-    r.output_names = scenario.output_names;
-    // The offsets derived from each prediction, when an output is a C-axis error (as alc bench).
-    r.offset_names = scenarios::HistoryRecorder::offset_names(nc_setup.config.chain, scenario.output_names);
-    run = writer.begin_run(r);
-    session.emplace(scenario, params);
-  }
-  scenarios::HistoryRecorder recorder(writer, run, session->controller());
-  recorder.record_offsets(nc_setup.config.chain, scenario.output_names);  // no-op without a C-axis error
-  if (!a.resume) recorder.save_snapshot(*session);  // a killed run can always resume
-  kill.next.push_back(&recorder);
-  if (nc_observer) {
-    nc_observer->set_history({&writer, run, nc_sink_of(nc_dir), nc_setup.dialect, nc_setup.config.nc});
-    kill.next.push_back(nc_observer);
-  }
-  session->run(stop_s, &kill);
-  recorder.save_snapshot(*session);
-  writer.end_run(run, session->finished() ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
-  if (!session->finished())
-    std::cerr << source << ": stopped at " << a.stop_at_h << " h of scenario time (run " << run << " in " << a.db
-              << "); continue with --resume\n";
-  if (nc_observer) write_nc_output(nc_dir, source, nc_setup, *nc_observer, &writer, run);
-  writer.close();
-  if (!session->finished()) return std::nullopt;
-  return session;
 }
 
 void run_replay(const ReplayArgs& a) {
@@ -352,12 +228,13 @@ void run_replay(const ReplayArgs& a) {
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
-  NcSetup nc_setup;
+  nc::MachineConfig machine;
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;
   // The machine's chain gives the offsets of --nc-out and those stored with --db.
   if (!a.machine.empty() && a.nc_out.empty() && a.db.empty()) throw UsageError("--machine needs --nc-out or --db");
   if (!a.machine.empty()) {
     try {
-      nc_setup.config = nc::read_machine_config(a.machine);
+      machine = nc::read_machine_config(a.machine);
     } catch (const nc::ConfigError& e) {
       throw UsageError(e.what());
     }
@@ -366,27 +243,47 @@ void run_replay(const ReplayArgs& a) {
     if (a.resume)
       throw UsageError(
           "--nc-out cannot be combined with --resume (the safety gate would not know the offsets in force)");
-    const auto dialect = nc::parse_dialect(a.dialect);
-    if (!dialect)
+    const auto dialect_parsed = nc::parse_dialect(a.dialect);
+    if (!dialect_parsed)
       throw UsageError("--dialect: '" + a.dialect + "' is not one of linuxcnc, fanuc, sinumerik, heidenhain");
-    nc_setup.dialect = *dialect;
+    dialect = *dialect_parsed;
   } else if (a.dialect != "linuxcnc") {
     throw UsageError("--dialect needs --nc-out");
   }
 
-  std::vector<std::pair<std::string, scenarios::ReplayReport>> reports;
+  KillSwitch kill;
+  std::vector<std::pair<std::string, runtime::ReplayReport>> reports;
   for (const auto& [name, scenario] : cases) {
     const std::string source = a.file.empty() ? "case " + name : "file " + name;
-    std::optional<scenarios::NcCommandObserver> nc_observer;
-    const std::filesystem::path nc_dir =
-        a.nc_out.empty() ? std::filesystem::path() : nc_dir_of(a, name, cases.size() > 1);
-    if (!a.nc_out.empty())
-      nc_observer.emplace(scenario.output_names, scenarios::nc_observer_options(nc_setup.config));
-    const auto session =
-        replay_one(a, params, source, scenario, nc_setup, nc_dir, nc_observer ? &*nc_observer : nullptr);
-    if (!session) continue;
-    reports.emplace_back(name, session->report());
-    if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, session->residuals());
+    const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
+    runtime::ReplayOptions o;
+    o.parameters = params;
+    o.source = source;
+    o.identity = identity_of(a);
+    o.db = a.db;
+    o.resume = a.resume;
+    o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
+    o.machine = machine;
+    o.software_version = std::string("alc ") + ALC_VERSION;
+    if (!a.nc_out.empty()) o.nc = runtime::NcOutputSetup{nc_dir_of(a, name, cases.size() > 1), dialect};
+    kill.kill_at_s = std::isfinite(a.kill_at_h) ? t0 + a.kill_at_h * 3600.0 : kInf;
+    if (std::isfinite(kill.kill_at_s)) o.observers.push_back(&kill);
+    std::optional<runtime::Replay> replay;
+    try {
+      replay.emplace(scenario, std::move(o));
+    } catch (const runtime::ResumeRefused& e) {
+      throw UsageError(e.what());
+    }
+    replay->run();
+    if (replay->nc() && replay->nc_summary())
+      print_nc_summary(source, nc_dir_of(a, name, cases.size() > 1), dialect, *replay->nc(), *replay->nc_summary());
+    if (!replay->finished()) {
+      std::cerr << source << ": stopped at " << a.stop_at_h << " h of scenario time (run " << *replay->run_id()
+                << " in " << a.db << "); continue with --resume\n";
+      continue;
+    }
+    reports.emplace_back(name, replay->report());
+    if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());
   }
   if (reports.empty()) return;
   if (a.json) {

@@ -24,15 +24,6 @@ std::string hours(double s) {
 
 }  // namespace
 
-std::string_view to_string(Phase phase) {
-  switch (phase) {
-    case Phase::Calibration: return "CP";
-    case Phase::PostCalibration: return "Post-CP";
-    case Phase::NoGood: return "NG";
-  }
-  return "?";
-}
-
 std::string_view to_string(ControllerEvent::Type type) {
   switch (type) {
     case ControllerEvent::Type::PhaseChange: return "phase_change";
@@ -73,10 +64,21 @@ std::string AlcParameters::validate() const {
   return {};
 }
 
+probing::PaperScheduleOptions AlcParameters::schedule() const {
+  probing::PaperScheduleOptions o;
+  o.cp_interval_s = cp_interval_s;
+  o.post_cp_interval_s = post_cp_interval_s;
+  o.ng_interval_s = ng_interval_s;
+  o.ng_measurements = ng_measurements;
+  o.confirm_breach = confirm_breach;
+  return o;
+}
+
 Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
-                       AlcParameters params)
-    : output_names_(std::move(output_names)), params_(std::move(params)) {
+                       AlcParameters params, SchedulePtr schedule)
+    : output_names_(std::move(output_names)), params_(std::move(params)), schedule_(std::move(schedule)) {
   if (const std::string why = params_.validate(); !why.empty()) throw std::invalid_argument(why);
+  if (!schedule_) schedule_ = std::make_shared<const probing::PaperSchedule>(params_.schedule());
   if (output_names_.empty()) throw std::invalid_argument("controller: no error outputs");
   for (const auto& name : output_names_) kinds_.push_back(error_kind(name));
   state_.history.input_names = std::move(input_names);
@@ -85,8 +87,8 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
 }
 
 Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
-                       AlcParameters params, ControllerState state)
-    : Controller(std::move(input_names), std::move(output_names), std::move(params)) {
+                       AlcParameters params, ControllerState state, SchedulePtr schedule)
+    : Controller(std::move(input_names), std::move(output_names), std::move(params), std::move(schedule)) {
   if (state.history.input_names != state_.history.input_names)
     throw std::invalid_argument("controller: saved state has other input names");
   if (state.prediction.size() != static_cast<Eigen::Index>(output_names_.size()))
@@ -123,7 +125,61 @@ void Controller::change_phase(Phase to, double time_s, ControllerOutput& out, co
   e.to = to;
   e.reason = reason;
   state_.phase = to;
+  state_.phase_start_s = time_s;
   out.events.push_back(std::move(e));
+}
+
+probing::ScheduleContext Controller::schedule_context(double time_s) const {
+  probing::ScheduleContext c;
+  c.now_s = time_s;
+  c.phase = state_.phase;
+  c.phase_start_s = state_.phase_start_s;
+  c.last_update_s = state_.last_update_s;
+  c.ng_probes = state_.ng_probes;
+  return c;
+}
+
+double Controller::next_due(double time_s) const { return schedule_->next_due(schedule_context(time_s)); }
+
+void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason,
+                       const std::string& interval_reason) {
+  change_phase(to, time_s, out, reason);
+  state_.next_probe_due_s = next_due(time_s);
+  set_interval(schedule_->interval(to), time_s, out, interval_reason);
+}
+
+ControllerOutput Controller::rejected(std::string reason) const {
+  ControllerOutput out;
+  out.accepted = false;
+  out.reason = std::move(reason);
+  out.prediction = state_.prediction;
+  out.next_probe_due_s = state_.next_probe_due_s;
+  return out;
+}
+
+void Controller::trim() {
+  if (state_.phase == Phase::Calibration || !std::isfinite(params_.learning_window_s)) return;
+  auto& h = state_.history;
+  if (h.time_s.empty()) return;
+  // Keep the window and the warm-up of the slowest lag; trim in steps of a quarter window so the
+  // copy is paid rarely (memory stays below window x 1.25 + warm-up).
+  const double keep_from = learning_window_start(state_.now_s) -
+                           kWarmupTimeConstants * params_.identification.tau_max_s;
+  if (!(h.time_s.front() < keep_from - 0.25 * params_.learning_window_s)) return;
+  const auto drop = static_cast<std::size_t>(std::lower_bound(h.time_s.begin(), h.time_s.end(), keep_from) -
+                                             h.time_s.begin());
+  if (drop == 0 || drop >= h.time_s.size()) return;
+  const auto keep = static_cast<Eigen::Index>(h.time_s.size() - drop);
+  h.time_s.erase(h.time_s.begin(), h.time_s.begin() + static_cast<std::ptrdiff_t>(drop));
+  InputMatrix rest = h.inputs.bottomRows(keep);
+  h.inputs = std::move(rest);
+  state_.history_first_index += static_cast<std::int64_t>(drop);
+  // Probes whose sample is gone go too (they are older than the learning window).
+  std::size_t gone = 0;
+  while (gone < state_.probes.size() && state_.probes[gone].sample_index < drop) ++gone;
+  state_.probes.erase(state_.probes.begin(), state_.probes.begin() + static_cast<std::ptrdiff_t>(gone));
+  for (auto& p : state_.probes) p.sample_index -= drop;
+  if (state_.breach_probe >= 0) state_.breach_probe -= static_cast<int>(gone);
 }
 
 bool Controller::reidentify(double time_s, ControllerOutput& out, const std::string& reason, bool keep_structure) {
@@ -172,9 +228,8 @@ void Controller::advance(double time_s, ControllerOutput& out) {
     state_.probes_at_last_attempt = static_cast<int>(state_.probes.size());
     if (!reidentify(time_s, out, "end of calibration phase after " + hours(time_s - state_.start_time_s))) return;
     state_.cp_end_s = time_s;
-    change_phase(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified");
-    state_.next_probe_due_s = time_s + params_.post_cp_interval_s;
-    set_interval(params_.post_cp_interval_s, time_s, out, "Post-CP interval");
+    enter(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified",
+          "Post-CP interval");
     return;
   }
   if (state_.phase == Phase::PostCalibration && std::isfinite(params_.update_interval_s) &&
@@ -188,27 +243,33 @@ void Controller::advance(double time_s, ControllerOutput& out) {
 ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inputs) {
   auto& h = state_.history;
   if (inputs.size() != static_cast<Eigen::Index>(h.input_names.size()))
-    throw std::invalid_argument("controller: sample has " + std::to_string(inputs.size()) + " inputs, expected " +
-                                std::to_string(h.input_names.size()));
-  if (!inputs.allFinite()) throw std::invalid_argument("controller: sample at t = " + std::to_string(time_s) +
-                                                       " s has a non-finite input");
+    return rejected("sample has " + std::to_string(inputs.size()) + " inputs, expected " +
+                    std::to_string(h.input_names.size()));
+  if (!std::isfinite(time_s)) return rejected("sample time " + std::to_string(time_s) + " is not finite");
+  for (Eigen::Index i = 0; i < inputs.size(); ++i)
+    if (!std::isfinite(inputs[i]))
+      return rejected("sample at t = " + std::to_string(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
+                      "' is " + std::to_string(inputs[i]));
   if (state_.started && !(time_s > state_.now_s))
-    throw std::invalid_argument("controller: sample time " + std::to_string(time_s) +
-                                " s is not after the previous one (" + std::to_string(state_.now_s) + " s)");
+    return rejected("sample time " + std::to_string(time_s) + " s is not after the previous one (" +
+                    std::to_string(state_.now_s) + " s)");
   ControllerOutput out;
   if (!state_.started) {
     state_.started = true;
     state_.start_time_s = time_s;
+    state_.phase_start_s = time_s;
     state_.next_probe_due_s = time_s;
-    set_interval(params_.cp_interval_s, time_s, out, "calibration phase starts");
+    set_interval(schedule_->interval(Phase::Calibration), time_s, out, "calibration phase starts");
   }
   state_.now_s = time_s;
+  ++state_.samples;
   h.time_s.push_back(time_s);
   const Eigen::Index row = h.inputs.rows();
   h.inputs.conservativeResize(row + 1, Eigen::NoChange);
   h.inputs.row(row) = inputs.transpose();
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
+  trim();
   out.prediction = state_.prediction;
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
@@ -216,16 +277,24 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
 
 ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   const auto n = static_cast<Eigen::Index>(output_names_.size());
-  if (!state_.started) throw std::invalid_argument("controller: probe before the first input sample");
+  if (!state_.started) return rejected("probe before the first input sample");
   if (probe.measured.size() != n)
-    throw std::invalid_argument("controller: probe has " + std::to_string(probe.measured.size()) +
-                                " errors, expected " + std::to_string(n));
+    return rejected("probe has " + std::to_string(probe.measured.size()) + " errors, expected " + std::to_string(n));
   if (probe.compensation.size() != 0 && probe.compensation.size() != n)
-    throw std::invalid_argument("controller: probe compensation has " + std::to_string(probe.compensation.size()) +
-                                " values, expected " + std::to_string(n));
-  if (probe.time_s < state_.now_s)
-    throw std::invalid_argument("controller: probe at t = " + std::to_string(probe.time_s) +
-                                " s is before the latest sample");
+    return rejected("probe compensation has " + std::to_string(probe.compensation.size()) + " values, expected " +
+                    std::to_string(n));
+  if (!(probe.time_s >= state_.now_s) || !std::isfinite(probe.time_s))
+    return rejected("probe at t = " + std::to_string(probe.time_s) + " s is before the latest sample (" +
+                    std::to_string(state_.now_s) + " s)");
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (std::isinf(probe.measured[i]))
+      return rejected("probe at t = " + std::to_string(probe.time_s) + " s: " + output_names_[k] + " is " +
+                      std::to_string(probe.measured[i]));
+    if (probe.compensation.size() == n && !std::isfinite(probe.compensation[i]))
+      return rejected("probe at t = " + std::to_string(probe.time_s) + " s: compensation of " + output_names_[k] +
+                      " is " + std::to_string(probe.compensation[i]));
+  }
   ControllerOutput out;
   const double t = probe.time_s;
   ProbeRecord record;
@@ -261,22 +330,22 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
 
   switch (state_.phase) {
     case Phase::Calibration:
-      state_.next_probe_due_s = t + params_.cp_interval_s;
+      state_.next_probe_due_s = next_due(t);
       advance(t, out);
       break;
     case Phase::PostCalibration:
       if (breaches.empty()) {
         if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL", true);
-        state_.next_probe_due_s = t + params_.post_cp_interval_s;
-      } else if (!std::isfinite(params_.ng_interval_s) || params_.ng_measurements == 0.0) {
+        state_.next_probe_due_s = next_due(t);
+      } else if (!schedule_->ng_burst()) {
         // No NG burst configured: learn from what is there, right away.
         reidentify(t, out, "ACL breach (" + output_names_[breaches.front()] + "), update without NG burst");
-        state_.next_probe_due_s = t + params_.post_cp_interval_s;
+        state_.next_probe_due_s = next_due(t);
       } else {
         ++state_.ng_phases;
         state_.ng_probes = 0;
         change_phase(Phase::NoGood, t, out, "ACL breach on " + output_names_[breaches.front()]);
-        if (params_.confirm_breach) {
+        if (schedule_->confirms_breaches()) {
           // Wait for the first NG probe: a chip on the sphere breaches once, a thermal change stays.
           state_.breach_probe = static_cast<int>(state_.probes.size()) - 1;
           state_.breach_residual = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
@@ -287,8 +356,8 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
           // compensating with it for the whole NG burst; the NG update follows with more data.
           reidentify(t, out, "ACL breach, immediate update before the NG burst");
         }
-        state_.next_probe_due_s = t + params_.ng_interval_s;
-        set_interval(params_.ng_interval_s, t, out, "NG interval");
+        state_.next_probe_due_s = next_due(t);
+        set_interval(schedule_->interval(Phase::NoGood), t, out, "NG interval");
       }
       break;
     case Phase::NoGood: {
@@ -296,13 +365,9 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       if (state_.breach_probe >= 0) {
         // The first NG probe judges the breach: confirmed when some breached output is still off
         // the same way by more than half its ACL.
-        bool confirmed = false;
-        for (Eigen::Index i = 0; i < n; ++i) {
-          const double before = state_.breach_residual(i);
-          if (std::isnan(before) || std::isnan(residuals(i))) continue;
-          if (before * residuals(i) > 0.0 && std::abs(residuals(i)) > 0.5 * acl_of(static_cast<std::size_t>(i)))
-            confirmed = true;
-        }
+        Eigen::VectorXd acl(n);
+        for (Eigen::Index i = 0; i < n; ++i) acl(i) = acl_of(static_cast<std::size_t>(i));
+        const bool confirmed = schedule_->confirmed(state_.breach_residual, residuals, acl);
         const auto breach = static_cast<std::size_t>(state_.breach_probe);
         state_.breach_probe = -1;
         if (!confirmed) {
@@ -322,34 +387,31 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
             for (const std::size_t k : breaches)
               state_.breach_residual(static_cast<Eigen::Index>(k)) = residuals(static_cast<Eigen::Index>(k));
             state_.ng_probes = 0;
-            state_.next_probe_due_s = t + params_.ng_interval_s;
+            state_.next_probe_due_s = next_due(t);
             break;
           }
           if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL", true);
-          change_phase(Phase::PostCalibration, t, out, "breach not confirmed (outlier probe)");
-          state_.next_probe_due_s = t + params_.post_cp_interval_s;
-          set_interval(params_.post_cp_interval_s, t, out, "Post-CP interval");
+          enter(Phase::PostCalibration, t, out, "breach not confirmed (outlier probe)", "Post-CP interval");
           break;
         }
         // The model is known to be wrong: learn from both probes at once instead of compensating
         // with it for the whole NG burst; the NG update follows with more data.
         if (params_.refit_on_probe) reidentify(t, out, "ACL breach confirmed by the first NG probe, immediate update");
       }
-      const bool finite_count = std::isfinite(params_.ng_measurements);
-      if (finite_count && state_.ng_probes < params_.ng_measurements) {
-        state_.next_probe_due_s = t + params_.ng_interval_s;
+      const probing::NgStep step = schedule_->after_ng_probe(schedule_context(t), !breaches.empty());
+      if (step == probing::NgStep::Continue) {
+        state_.next_probe_due_s = next_due(t);
         break;
       }
-      if (!finite_count && !breaches.empty()) {
+      if (step == probing::NgStep::UpdateAndContinue) {
         reidentify(t, out, "NG probe " + std::to_string(state_.ng_probes) + " still beyond the ACL");
-        state_.next_probe_due_s = t + params_.ng_interval_s;
+        state_.next_probe_due_s = next_due(t);
         break;
       }
-      if (finite_count) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
-      change_phase(Phase::PostCalibration, t, out,
-                   finite_count ? "NG measurements complete" : "NG probe within the ACL");
-      state_.next_probe_due_s = t + params_.post_cp_interval_s;
-      set_interval(params_.post_cp_interval_s, t, out, "Post-CP interval");
+      const bool update = step == probing::NgStep::UpdateAndLeave;
+      if (update) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+      enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
+            "Post-CP interval");
       break;
     }
   }

@@ -70,9 +70,5 @@ double smape_percent(std::span<const double> measured, std::span<const double> p
   return 100.0 * sum / static_cast<double>(measured.size());
 }
 
-double productivity_percent(double probe_cycles, double total_duration_s, double probe_cycle_time_s) {
-  if (!(total_duration_s > 0.0)) return kNaN;
-  return (1.0 - probe_cycles * probe_cycle_time_s / total_duration_s) * 100.0;
-}
 
 }  // namespace alc

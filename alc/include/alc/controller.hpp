@@ -4,8 +4,20 @@
 // A cycle API without I/O. The caller feeds input samples, probe results and ticks in time order;
 // each call returns what to do: the predicted errors (to turn into offsets), the time the next
 // probe is due, and events (phase changes with reasons, probe-interval changes, model updates,
-// ACL breaches). The replay, the parameter study and the supervisor all drive this class.
+// ACL breaches). The replay, the parameter study and the supervisor all drive this class, through
+// the driver of runtime/ (runtime/driver.hpp).
+//
+// When to probe is asked of a schedule policy (probing/schedule.hpp): by default seed 004's
+// PaperSchedule built from the parameters below; another policy can be given to the constructor.
+//
+// Bad data never throws here: a sample or probe that cannot be used (wrong size, a non-finite input,
+// a time that goes backwards) returns status Rejected with the reason and changes nothing.
+//
+// Memory is bounded by the learning window (docs/runtime.md): after CP the controller keeps the input
+// samples of the last learning_window_s plus a warm-up of kWarmupTimeConstants x the longest time
+// constant of the pole grid (so the lags start settled), and the probes since then.
 #include <Eigen/Core>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -13,11 +25,13 @@
 
 #include "alc/error_kind.hpp"
 #include "alc/thermal_model.hpp"
+#include "probing/schedule.hpp"
 
 namespace alc {
 
-enum class Phase { Calibration, PostCalibration, NoGood };
-std::string_view to_string(Phase phase);
+// Samples older than the learning window by this many times the longest time constant of the pole
+// grid are dropped (the lags of a history that starts there have settled to within e^-5 = 0.7 %).
+inline constexpr double kWarmupTimeConstants = 5.0;
 
 // The parameters of Tab. 1 of seed 004 (all times in seconds; kInf where the paper has "Inf").
 struct AlcParameters {
@@ -38,13 +52,16 @@ struct AlcParameters {
                                            //     factor since the last structure search (then a full search)
   double acl_linear_um = 5.0;              // [µm] action control limit of linear errors
   double acl_angular_um_per_m = 15.0;      // [µm/m] action control limit of angular errors
-  double learning_window_s = kInf;         // [s] re-identify on the data of this last span; inf: all data
+  double learning_window_s = 14 * 86400.0; // [s] re-identify on the data of this last span (bounds memory);
+                                           //     inf: all data, memory grows with the run
   double learning_since_s = -kInf;         // [s] re-identify only on probes at or after this time (a point
                                            //     in time such as a repair or a new fixture); -inf: all data
   IdentificationOptions identification;    // window_start_s is set by the controller
 
   // Empty if valid, else the first violated constraint naming the field and value.
   std::string validate() const;
+  // The probe schedule of these parameters (seed 004's fixed intervals per phase).
+  probing::PaperScheduleOptions schedule() const;
 };
 
 // What a probe cycle measured. In closed loop the probe sees the error left after compensation;
@@ -70,6 +87,8 @@ struct ControllerEvent {
 std::string_view to_string(ControllerEvent::Type type);
 
 struct ControllerOutput {
+  bool accepted = true;                // false: the sample or probe was rejected (reason), nothing changed
+  std::string reason;                  // why it was rejected
   Eigen::VectorXd prediction;          // [µm] / [µm/m] predicted errors; zero while no model exists
   double next_probe_due_s = kInf;      // [s] inf: no probe scheduled
   std::vector<ControllerEvent> events;
@@ -79,6 +98,7 @@ struct ControllerOutput {
 // Everything the controller knows: a plain value, so a saved copy restores it bit for bit.
 struct ControllerState {
   Phase phase = Phase::Calibration;
+  double phase_start_s = 0.0;          // [s] when the current phase began
   double start_time_s = 0.0;           // [s] time of the first sample
   bool started = false;
   double now_s = 0.0;                  // [s] time of the latest input
@@ -95,8 +115,10 @@ struct ControllerState {
   double structure_span_s = 0.0;       // [s] span of the data used by the last structure search
   int breach_probe = -1;               // index in `probes` of the probe that started NG, until confirmed
   Eigen::VectorXd breach_residual;     // its residuals [µm] / [µm/m] (NaN where within the ACL)
-  InputHistory history;                // all input samples
-  std::vector<ProbeRecord> probes;     // all probe records (thermal error = measured + compensation)
+  InputHistory history;                // the input samples the learning needs (see kWarmupTimeConstants)
+  std::int64_t history_first_index = 0;  // index of history row 0 among all samples of the run
+  std::int64_t samples = 0;            // samples accepted in the run
+  std::vector<ProbeRecord> probes;     // probe records since history row 0 (error = measured + compensation)
   bool has_model = false;
   ModelPredictor predictor;            // current model with its running state
   Eigen::VectorXd prediction;          // latest prediction
@@ -104,21 +126,27 @@ struct ControllerState {
 
 class Controller {
  public:
-  // Throws std::invalid_argument if the parameters are invalid or there are no outputs.
-  Controller(std::vector<std::string> input_names, std::vector<std::string> output_names, AlcParameters params);
+  using SchedulePtr = std::shared_ptr<const probing::SchedulePolicy>;
+  // Throws std::invalid_argument if the parameters are invalid or there are no outputs. Without a
+  // schedule, seed 004's PaperSchedule of params.schedule().
+  Controller(std::vector<std::string> input_names, std::vector<std::string> output_names, AlcParameters params,
+             SchedulePtr schedule = nullptr);
   // Restores a saved state (the parameters and names must be those of the saved controller).
   Controller(std::vector<std::string> input_names, std::vector<std::string> output_names, AlcParameters params,
-             ControllerState state);
+             ControllerState state, SchedulePtr schedule = nullptr);
 
-  // A new input sample (time strictly increasing). Returns the prediction after it.
+  // A new input sample (time strictly increasing, every input finite). Returns the prediction after
+  // it; a sample that breaks this is rejected (accepted = false, reason) and changes nothing.
   ControllerOutput on_sample(double time_s, const Eigen::VectorXd& inputs);
-  // A probe cycle finished at `probe.time_s` (not before the latest sample).
+  // A probe cycle finished at `probe.time_s` (not before the latest sample; NaN = not measured).
+  // A probe that cannot be used is rejected (accepted = false, reason) and changes nothing.
   ControllerOutput on_probe(const ProbeMeasurement& probe);
   // Time passes without data: phase ends and periodic updates that are due happen here.
   ControllerOutput on_tick(double time_s);
 
   const ControllerState& state() const { return state_; }
   const AlcParameters& parameters() const { return params_; }
+  const probing::SchedulePolicy& schedule() const { return *schedule_; }
   const std::vector<std::string>& output_names() const { return output_names_; }
   Phase phase() const { return state_.phase; }
   double acl_of(std::size_t output) const;
@@ -130,6 +158,13 @@ class Controller {
   void advance(double time_s, ControllerOutput& out);
   void set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason);
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
+  // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
+  void enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason, const std::string& interval_reason);
+  probing::ScheduleContext schedule_context(double time_s) const;
+  double next_due(double time_s) const;
+  ControllerOutput rejected(std::string reason) const;
+  // Drops samples and probes that no identification can use any more (bounded memory).
+  void trim();
   // keep_structure: refit the parameters of the current model's structure (refit()) instead of
   // the full identify(); used for the probes that confirm the model.
   bool reidentify(double time_s, ControllerOutput& out, const std::string& reason, bool keep_structure = false);
@@ -137,6 +172,7 @@ class Controller {
   std::vector<std::string> output_names_;
   std::vector<ErrorKind> kinds_;
   AlcParameters params_;
+  SchedulePtr schedule_;
   ControllerState state_;
   // The grid lags of state_.history, extended by each identification instead of recomputed: derived
   // from the state, not part of it (a restored controller rebuilds it and decides the same, bit for bit).

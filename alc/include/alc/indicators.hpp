@@ -7,7 +7,6 @@
 
 namespace alc {
 
-inline constexpr double kProbeCycleTime_s = 95.0;  // [s] T_M of Eq. 7, one on-machine measurement
 
 // Eq. 1: PV = max|y - yhat| / max|y| * 100 [%].
 double peak_value_percent(std::span<const double> measured, std::span<const double> predicted);
@@ -27,7 +26,6 @@ double p99_abs_residual(std::span<const double> measured, std::span<const double
 // y = yhat = 0 counts as 0 (a perfect prediction of a zero error), not as 0/0.
 double smape_percent(std::span<const double> measured, std::span<const double> predicted);
 
-// Eq. 7: Pd = (1 - M T_M / T_total) * 100 [%], M all probe cycles of the run (CP included).
-double productivity_percent(double probe_cycles, double total_duration_s, double probe_cycle_time_s = kProbeCycleTime_s);
+// Eq. 7 (Pd, probe accounting) is probing's: probing::productivity_percent (probing/schedule.hpp).
 
 }  // namespace alc

@@ -1,11 +1,13 @@
 #pragma once
-// What the NC would have received during a replay: the controller's predictions turned into axis
-// offsets (kinematics::compensate + nc::to_axis_offsets) and its probe-interval changes, each passed
-// through the safety gate (nc::CommandRecorder). Usable by replay, study and supervisor alike.
+// What the NC receives: the controller's predictions turned into axis offsets (the cycle's
+// compensation at the driver's machine, Cycle::compensation(), + nc::to_axis_offsets) and its
+// probe-interval changes, each passed through the safety gate (nc::CommandRecorder). A driver
+// observer: replay, study and supervisor alike.
 //
 // Emission rule (docs/nc.md, "The replay's NC output"):
-// - Offsets are computed at the reference pose: tilt (A or B) = 0°, table (C) = 0°, for the
-//   workpiece reference point `[kinematics] workpiece_point_mm` of the machine config.
+// - Offsets are computed at the driver's reference pose (Driver::set_machine: tilt (A or B) = 0°,
+//   table (C) = 0°, for the workpiece reference point `[kinematics] workpiece_point_mm` of the machine
+//   config); the driver must have a machine with the same chain as these options.
 // - They are considered at three kinds of moments: after every probe cycle, after every cycle with a
 //   model update (ModelUpdate event), and when `period_s` of scenario time has passed since the last
 //   of these. One controller cycle gives at most one moment.
@@ -30,21 +32,20 @@
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/machine_config.hpp"
 #include "nc_interface/recorder.hpp"
-#include "scenarios/replay.hpp"
+#include "runtime/driver.hpp"
 #include "storage/history_writer.hpp"
 
-namespace alc::scenarios {
+namespace alc::runtime {
 
 struct NcObserverOptions {
   kinematics::MachineChain chain = kinematics::MachineChain::ac_trunnion();
-  kinematics::AxisPositions pose{};  // reference pose: tilt 0°, table 0°
   int work_offset = 1;               // 1 = G54 … 6 = G59
   nc::SafetyLimits limits;
   double period_s = 900.0;           // [s] scenario time between periodic moments (15 min)
   double resolution = 1e-4;          // [mm] / [°] smallest change worth a command
 };
 
-// The options of a machine config (chain, work offset, limits); pose, period, resolution default.
+// The options of a machine config (chain, work offset, limits); period and resolution default.
 NcObserverOptions nc_observer_options(const nc::MachineConfig& config);
 
 // Where the observer also records each command in the history (NcCommandRecord rows).
@@ -56,7 +57,7 @@ struct NcHistoryTarget {
   nc::DialectOptions options;        // for the NC text of the record
 };
 
-class NcCommandObserver : public ReplayObserver {
+class NcCommandObserver : public Observer {
  public:
   // Throws std::invalid_argument for an unusable chain, limits, period or resolution.
   NcCommandObserver(const std::vector<std::string>& output_names, NcObserverOptions options);
@@ -64,8 +65,7 @@ class NcCommandObserver : public ReplayObserver {
   // Also record every command (accepted = the safety gate passed it) in a history database.
   void set_history(NcHistoryTarget target) { history_ = std::move(target); }
 
-  void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const ControllerOutput& out) override;
-  void on_probe(std::size_t row, const ProbeMeasurement& probe, const ControllerOutput& out) override;
+  void on_cycle(const Cycle& cycle) override;
 
   // The commands as emitted (before the gate), in order: the input of nc::write_replay_nc_output.
   const std::vector<nc::NcCommand>& commands() const { return commands_; }
@@ -79,11 +79,10 @@ class NcCommandObserver : public ReplayObserver {
   bool maps_any_error() const { return maps_any_; }
 
  private:
-  void handle(double time_s, const ControllerOutput& out, bool probe_cycle);
+  void handle(const Cycle& cycle);
   nc::SafetyDecision emit(const nc::NcCommand& command, double time_s);
 
   NcObserverOptions options_;
-  std::vector<int> field_of_output_;  // index into the seven errors, -1 = ignored
   bool maps_any_ = false;
   nc::CommandRecorder recorder_;
   std::vector<nc::NcCommand> commands_;
@@ -97,4 +96,4 @@ class NcCommandObserver : public ReplayObserver {
   std::optional<NcHistoryTarget> history_;
 };
 
-}  // namespace alc::scenarios
+}  // namespace alc::runtime

@@ -1,4 +1,4 @@
-#include "scenarios/replay_nc.hpp"
+#include "runtime/nc_emitter.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "nc_interface/jsonl.hpp"
 
-namespace alc::scenarios {
+namespace alc::runtime {
 
 namespace {
 
@@ -58,22 +58,16 @@ NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_name
   // The starting point of the comparison: zero offsets on the axes of this chain.
   last_ = nc::to_axis_offsets(kinematics::Compensation{}, options_.chain, options_.work_offset);
   in_force_ = last_;
-  for (const std::string& name : output_names) {
-    const int field = kinematics::location_error_field(name);
-    field_of_output_.push_back(field);
-    if (field >= 0) maps_any_ = true;
-  }
+  for (const std::string& name : output_names)
+    if (kinematics::location_error_field(name) >= 0) maps_any_ = true;
 }
 
-void NcCommandObserver::on_sample(std::size_t, double time_s, const Eigen::VectorXd&, const ControllerOutput& out) {
-  handle(time_s, out, false);
-}
+void NcCommandObserver::on_cycle(const Cycle& cycle) { handle(cycle); }
 
-void NcCommandObserver::on_probe(std::size_t, const ProbeMeasurement& probe, const ControllerOutput& out) {
-  handle(probe.time_s, out, true);
-}
-
-void NcCommandObserver::handle(double time_s, const ControllerOutput& out, bool probe_cycle) {
+void NcCommandObserver::handle(const Cycle& cycle) {
+  const ControllerOutput& out = cycle.out();
+  const double time_s = cycle.time_s();
+  const bool probe_cycle = cycle.kind() == Cycle::Kind::Probe;
   bool updated = false;
   for (const ControllerEvent& e : out.events) {
     if (e.type == ControllerEvent::Type::ModelUpdate) updated = true;
@@ -87,14 +81,9 @@ void NcCommandObserver::handle(double time_s, const ControllerOutput& out, bool 
   if (!(probe_cycle || updated || periodic || behind_) || !maps_any_) return;
   if (probe_cycle || updated || periodic) next_periodic_s_ = time_s + options_.period_s;
 
-  kinematics::LocationErrors errors;
-  for (std::size_t k = 0; k < field_of_output_.size(); ++k) {
-    const auto i = static_cast<Eigen::Index>(k);
-    if (field_of_output_[k] < 0 || i >= out.prediction.size()) continue;
-    const double v = out.prediction[i];
-    if (std::isfinite(v)) kinematics::set_location_error(errors, field_of_output_[k], v);
-  }
-  const kinematics::Compensation c = kinematics::compensate(options_.chain, options_.pose, errors);
+  const kinematics::Compensation* computed = cycle.compensation();
+  if (computed == nullptr) throw std::logic_error("NC observer: the driver has no machine to compensate with");
+  const kinematics::Compensation& c = *computed;
   if (!c.converged) {
     ++not_converged_;
     return;
@@ -147,4 +136,4 @@ nc::SafetyDecision NcCommandObserver::emit(const nc::NcCommand& command, double 
   return d;
 }
 
-}  // namespace alc::scenarios
+}  // namespace alc::runtime

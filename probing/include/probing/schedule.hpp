@@ -1,0 +1,97 @@
+#pragma once
+// When to probe: the phases of the ALC loop and the schedule policies that the controller consults.
+//
+// The controller (alc/controller.hpp) owns the phase logic: when a phase begins and ends, when the
+// model is identified, what a breach is. A schedule policy owns the timing and counting inside it:
+// the probe interval of each phase, when the next probe is due, whether a breach starts a No-Good
+// (NG) burst, when the burst is complete and whether the first NG probe confirms a breach. The
+// policy is a const value without I/O; whatever it needs to decide comes in a ScheduleContext, so
+// the controller's state stays a plain value that saves and restores bit for bit.
+//
+// PaperSchedule is the schedule of seed 004 (Tab. 1, docs/design.md). Another policy (an adaptive
+// one that probes when the model is unsure, say) derives from SchedulePolicy or PaperSchedule and
+// overrides next_due(); the controller's phase logic stays as it is.
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <string_view>
+
+namespace alc {
+
+enum class Phase { Calibration, PostCalibration, NoGood };
+std::string_view to_string(Phase phase);
+
+}  // namespace alc
+
+namespace alc::probing {
+
+inline constexpr double kNever = std::numeric_limits<double>::infinity();
+
+// What a policy sees when it decides (all times in seconds, scenario or machine clock).
+struct ScheduleContext {
+  double now_s = 0.0;              // [s] time of the decision: a probe, or the start of a phase
+  Phase phase = Phase::Calibration;  // the phase in force after the decision
+  double phase_start_s = 0.0;      // [s] when that phase began
+  double last_update_s = -kNever;  // [s] time of the last model update (-inf: none yet)
+  int ng_probes = 0;               // probes taken in the current NG phase
+};
+
+// What the controller does after an NG probe.
+enum class NgStep {
+  Continue,           // keep probing at the NG interval
+  UpdateAndLeave,     // identify on the data, then back to Post-CP
+  UpdateAndContinue,  // identify now, and keep probing (an unbounded NG count while still breaching)
+  Leave,              // back to Post-CP without an extra identification (unbounded count, within the ACL)
+};
+
+class SchedulePolicy {
+ public:
+  virtual ~SchedulePolicy() = default;
+  virtual std::string_view name() const = 0;
+  // [s] The probe interval announced for `phase` (a probe_interval event; inf: no probes).
+  virtual double interval(Phase phase) const = 0;
+  // [s] When the next probe is due after the decision at ctx.now_s; inf: none.
+  virtual double next_due(const ScheduleContext& ctx) const { return ctx.now_s + interval(ctx.phase); }
+  // Whether a breach in Post-CP starts an NG burst (false: identify at the breach, stay in Post-CP).
+  virtual bool ng_burst() const = 0;
+  // After the NG probe number `ctx.ng_probes` (1 = the first), `breaching`: it broke the ACL.
+  virtual NgStep after_ng_probe(const ScheduleContext& ctx, bool breaching) const = 0;
+  // Whether a breach waits for the first NG probe to confirm it before it is learned from.
+  virtual bool confirms_breaches() const = 0;
+  // Whether the residuals of the first NG probe confirm a breach: some output that breached
+  // (`breach` not NaN) is still off the same way by more than half its ACL. NaN entries are skipped.
+  virtual bool confirmed(const Eigen::VectorXd& breach, const Eigen::VectorXd& residual,
+                         const Eigen::VectorXd& acl) const;
+};
+
+// The probe schedule of seed 004: a fixed interval per phase, an NG burst of a fixed count.
+struct PaperScheduleOptions {
+  double cp_interval_s = 300.0;            // [s] interval during the calibration phase
+  double post_cp_interval_s = 2 * 3600.0;  // [s] after CP; inf: no probes after CP
+  double ng_interval_s = 600.0;            // [s] in NG; inf: no burst, identify at the breach
+  double ng_measurements = 12;             // [-] NG probes before the update; 0: no burst; inf: identify
+                                           //     after each breaching NG probe, leave at the first within
+  bool confirm_breach = true;              // the first NG probe must confirm a breach
+};
+
+class PaperSchedule : public SchedulePolicy {
+ public:
+  explicit PaperSchedule(PaperScheduleOptions options) : options_(options) {}
+  std::string_view name() const override { return "paper"; }
+  double interval(Phase phase) const override;
+  bool ng_burst() const override;
+  NgStep after_ng_probe(const ScheduleContext& ctx, bool breaching) const override;
+  bool confirms_breaches() const override { return options_.confirm_breach; }
+  const PaperScheduleOptions& options() const { return options_; }
+
+ private:
+  PaperScheduleOptions options_;
+};
+
+// Probe accounting of Eq. 7 of seed 004: M probe cycles of T_M each over a run of T_total.
+inline constexpr double kProbeCycleTime_s = 95.0;  // [s] T_M, one probe cycle (seed 004)
+// Eq. 7: Pd = (1 - M T_M / T_total) * 100 [%], M all probe cycles of the run (CP included); NaN
+// when the duration is not positive.
+double productivity_percent(double probe_cycles, double duration_s, double cycle_time_s = kProbeCycleTime_s);
+
+}  // namespace alc::probing

@@ -1,0 +1,81 @@
+#pragma once
+// The paper's indicators of a replay (seed 004, Eq. 1–7) beside a static baseline (a multiple
+// linear regression fitted once on the CP measurements), as a driver observer.
+//
+// Evaluation after CP uses every recorded measurement of the scenario, comparing it with the
+// prediction that was active at that time (before the probe, if any, was learned from).
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "alc/error_kind.hpp"
+#include "alc/static_regression.hpp"
+#include "runtime/driver.hpp"
+#include "scenarios/scenario.hpp"
+
+namespace alc::runtime {
+
+// Indicators of one error output over the evaluation span (end of CP to end of run).
+struct OutputIndicators {
+  std::string name;
+  ErrorKind kind = ErrorKind::Linear;
+  int measurements = 0;               // recorded measurements evaluated
+  double PV = 0.0;                    // [%] Eq. 1
+  double RMSE = 0.0;                  // [µm] or [µm/m] Eq. 2
+  double P99 = 0.0;                   // [µm] or [µm/m] Eq. 3–5 on |residual|
+  double SMAPE = 0.0;                 // [%] Eq. 6
+  double P99_uncompensated = 0.0;     // [µm] or [µm/m] P99 of |measured|
+};
+
+struct ReplayReport {
+  std::vector<OutputIndicators> outputs;    // ALC
+  std::vector<OutputIndicators> baseline;   // static MLR fitted on the CP measurements
+  double Pd = 0.0;                          // [%] Eq. 7
+  int M = 0;                                // probe cycles, all phases
+  int ng_phases = 0;
+  int updates = 0;                          // successful identifications, incl. the first
+  int rejected_fits = 0;
+  double cp_end_s = kInf;                   // [s] end of the calibration phase
+  double duration_s = 0.0;                  // [s] T_total
+  double identification_s = 0.0;            // [s] wall time spent in cycles that identified
+  double total_s = 0.0;                     // [s] wall time of the replay
+  // Mean P99 over the linear (resp. angular) outputs; NaN if there are none.
+  double mean_p99(ErrorKind kind, bool of_baseline = false) const;
+  double mean_p99_uncompensated(ErrorKind kind) const;
+};
+
+// Collects, per recorded measurement after CP, the measured errors, the ALC prediction and the
+// baseline's. Memory: 3 doubles per output per recorded measurement after CP (the indicators need
+// every residual); none per sample.
+class Evaluation : public Observer {
+ public:
+  explicit Evaluation(const scenarios::Scenario& scenario);
+  void on_cycle(const Cycle& cycle) override;
+  void on_sample_done(const Sample& sample, const Controller& controller, std::int64_t next_index) override;
+
+  // The indicators after `rows` rows of the scenario were replayed.
+  ReplayReport report(const Controller& controller, std::size_t rows) const;
+  // Recorded measurements after CP with the ALC prediction: time_s, E_…, E_…_pred.
+  scenarios::Scenario residuals() const;
+
+  // What a snapshot keeps (bounded): the baseline. The evaluated rows are rebuilt on resume from
+  // the stored predictions (rebuild()).
+  bool baseline_fitted() const { return baseline_fitted_; }
+  const StaticRegression& baseline() const { return baseline_; }
+  void restore_baseline(bool fitted, StaticRegression baseline);
+  // Adds the evaluation of row `row` with the prediction that was active there (resume: the stored
+  // prediction of that sample), if the row is a recorded measurement at or after `cp_end_s`.
+  void rebuild(std::size_t row, const Eigen::VectorXd& predicted, double cp_end_s);
+  std::size_t evaluated() const { return time_s_.size(); }
+
+ private:
+  void add(std::size_t row, const Eigen::VectorXd& predicted);
+  const scenarios::Scenario& scenario_;
+  bool baseline_fitted_ = false;
+  StaticRegression baseline_;
+  Eigen::VectorXd predicted_;                 // active before this row's probe
+  std::vector<double> time_s_;                // [s] evaluated rows
+  std::vector<double> measured_, predicted_rows_, baseline_rows_;  // outputs per evaluated row, row-major
+};
+
+}  // namespace alc::runtime

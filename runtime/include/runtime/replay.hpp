@@ -1,0 +1,95 @@
+#pragma once
+// Replay of a recorded or simulated scenario through the driver: the controller, a RecordedSource,
+// the indicators (Evaluation), and, as asked, the history (begin or resume a run, snapshots,
+// end) and the NC output (commands through the safety gate, files, delivery records).
+// `alc replay` and `alc bench` run this; a study runs many.
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alc/controller.hpp"
+#include "nc_interface/dialects.hpp"
+#include "nc_interface/machine_config.hpp"
+#include "nc_interface/recorder.hpp"
+#include "runtime/driver.hpp"
+#include "runtime/evaluation.hpp"
+#include "runtime/nc_emitter.hpp"
+#include "runtime/recorded_source.hpp"
+#include "runtime/run.hpp"
+#include "scenarios/scenario.hpp"
+
+namespace alc::runtime {
+
+// Where the NC output of a replay goes: DIR/commands.jsonl, DIR/program.<ext>, DIR/safety.jsonl.
+struct NcOutputSetup {
+  std::filesystem::path dir;
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;
+};
+
+struct ReplayOptions {
+  AlcParameters parameters;
+  Controller::SchedulePtr schedule;        // nullptr: seed 004's schedule of `parameters`
+  std::string source;                      // what is replayed: "case A", "file a.csv" (the run's source)
+  nlohmann::json identity = nlohmann::json::object();  // more of the run's identity (seed, machine, ...)
+  std::filesystem::path db;                // history database; empty: none
+  bool resume = false;                     // continue the latest unfinished run of `source` in `db`
+  double stop_time_s = kInf;               // [s] replay the rows before this scenario time
+  double snapshot_every_s = 24 * 3600.0;   // [s] of scenario time
+  nc::MachineConfig machine;               // chain of the offsets (history, NC), NC options, limits
+  std::optional<NcOutputSetup> nc;         // NC output; none: no commands
+  std::vector<Observer*> observers;        // more observers (after the built-in ones)
+  std::string software_version;            // stored with a new run
+};
+
+class Replay {
+ public:
+  // Opens the history and begins or resumes the run when `options.db` is set. Throws
+  // ResumeRefused, std::invalid_argument (parameters) or a storage error.
+  Replay(const scenarios::Scenario& scenario, ReplayOptions options);
+  ~Replay();
+  Replay(const Replay&) = delete;
+  Replay& operator=(const Replay&) = delete;
+
+  // Replays up to options.stop_time_s (again: up to `stop_time_s`), then: the final snapshot and the
+  // run's end (Finished, or Stopped), and the NC files with their delivery record. When the NC files
+  // cannot be written their delivery is recorded as failed and the error is rethrown.
+  void run();
+  void run_until(double stop_time_s);
+
+  bool finished() const { return source_.finished(); }
+  ReplayReport report() const;
+  scenarios::Scenario residuals() const { return evaluation_.residuals(); }
+  const Controller& controller() const { return *controller_; }
+  Driver& driver() { return *driver_; }
+  std::optional<storage::RunId> run_id() const;
+  const NcCommandObserver* nc() const { return nc_ ? &*nc_ : nullptr; }
+  const std::optional<nc::NcOutputSummary>& nc_summary() const { return nc_summary_; }
+  // The run's state as a snapshot would store it (bounded: no input samples).
+  std::string encode_state() const;
+  // The run record a new run of this replay stores (identity = canonical parameters + options.identity).
+  storage::RunRecord run_record() const;
+  static std::string nc_sink_name(const std::filesystem::path& dir) { return "file:" + dir.string(); }
+
+ private:
+  void restore(const storage::ControllerSnapshot& snapshot);
+  const scenarios::Scenario& scenario_;
+  ReplayOptions options_;
+  std::unique_ptr<Controller> controller_;
+  RecordedSource source_;
+  Evaluation evaluation_;
+  std::unique_ptr<Driver> driver_;
+  std::unique_ptr<storage::HistoryWriter> writer_;
+  std::unique_ptr<RunLifecycle> lifecycle_;
+  std::unique_ptr<Observer> recorder_;
+  std::optional<NcCommandObserver> nc_;
+  std::optional<nc::NcOutputSummary> nc_summary_;
+  double total_s_ = 0.0;
+  bool ended_ = false;
+};
+
+// Replays the whole scenario in memory (no history, no NC output).
+ReplayReport replay(const scenarios::Scenario& scenario, const AlcParameters& parameters);
+
+}  // namespace alc::runtime

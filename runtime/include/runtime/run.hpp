@@ -1,0 +1,68 @@
+#pragma once
+// The lifecycle of a run recorded in a history: begin (or resume the latest unfinished run of the
+// same source and identity), the snapshot schedule, delivery records of NC output, end.
+// Used by replay and bench alike (and the supervisor next).
+//
+// Snapshot schedule: after the first sample at or past the run's first sample + every_s, then
+// after the first sample at or past the previous snapshot + every_s. A resumed run counts from the
+// run's first sample too, so past that point it saves a snapshot after its first sample.
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "alc/controller.hpp"
+#include "runtime/driver.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::runtime {
+
+// The run's identity: the canonical parameters (parsed values, never the text they came from),
+// as JSON with every number exact; "inf" / "-inf" where the value is infinite. Two runs with the
+// same identity make the same decisions on the same data.
+nlohmann::json canonical_parameters(const AlcParameters& parameters, std::string_view schedule = "paper");
+
+// A resume that cannot be done (no unfinished run, another identity): the history is unchanged.
+class ResumeRefused : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class RunLifecycle : public Observer {
+ public:
+  // Encodes the state to save at a consistent point: the payload of the snapshot.
+  using Encoder = std::function<std::string(std::int64_t next_index)>;
+
+  // Begins a new run (committed at once).
+  RunLifecycle(storage::HistoryWriter& writer, const storage::RunRecord& record, double snapshot_every_s);
+  // Resumes the latest unfinished run of record.source in `db` (the file `writer` has open): refuses
+  // (ResumeRefused) when there is none or its config_json differs from record.config_json. Records
+  // after its latest snapshot are deleted; that snapshot is resumed_from().
+  struct Resume {};
+  RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db, const storage::RunRecord& record,
+               double snapshot_every_s, Resume);
+
+  void set_encoder(Encoder encoder) { encoder_ = std::move(encoder); }
+  storage::RunId run() const { return run_; }
+  const std::optional<storage::ControllerSnapshot>& resumed_from() const { return resumed_from_; }
+
+  // Saves a snapshot when one is due.
+  void on_sample_done(const Sample& sample, const Controller& controller, std::int64_t next_index) override;
+  // Stores the state as a snapshot now (commits everything before it).
+  void save_snapshot(const Controller& controller, std::int64_t next_index);
+  // Records the delivery of the run's accepted NC commands of `sink` (delivered or not, why).
+  void record_delivery(const std::string& sink, bool delivered, const std::string& message);
+  // Ends the run: Finished, or Stopped (resumable).
+  void end(bool finished);
+
+ private:
+  storage::HistoryWriter& writer_;
+  storage::RunId run_ = 0;
+  double snapshot_every_s_;
+  double next_snapshot_s_ = -kInf;
+  Encoder encoder_;
+  std::optional<storage::ControllerSnapshot> resumed_from_;
+};
+
+}  // namespace alc::runtime

@@ -1,0 +1,41 @@
+#pragma once
+// The bounded, exact binary form of a run's state for snapshots (docs/storage.md, docs/runtime.md).
+//
+// A snapshot holds what cannot be recomputed, bounded in size whatever the run's length: the
+// controller's plain values, its model and predictor state, the probes of the learning window, and
+// the replay's baseline. It does NOT hold the input samples: on restore, the samples the controller
+// keeps (ControllerState::history, rows history_first_index .. samples-1 of the run) come back from
+// where they were stored (the history's input_samples). Format "alc.run-state" version 3, in the
+// little-endian byte format of common/byte_codec.hpp, ending with an FNV-1a 64 checksum of all bytes
+// before it; decode throws std::runtime_error on a damaged, truncated or foreign payload.
+#include <cstdint>
+#include <string>
+
+#include "alc/controller.hpp"
+#include "alc/static_regression.hpp"
+
+namespace alc::runtime {
+
+inline constexpr const char* kRunStateFormat = "alc.run-state";
+inline constexpr std::uint32_t kRunStateVersion = 3;
+
+struct RunState {
+  std::int64_t next_index = 0;        // source index to continue from
+  ControllerState controller;         // history rows empty after decode (restore_history())
+  bool baseline_fitted = false;       // the replay's static baseline (Evaluation)
+  StaticRegression baseline;
+  double identification_s = 0.0;      // [s] wall time (not part of decisions)
+  double total_s = 0.0;               // [s]
+};
+
+std::string encode_run_state(const RunState& state);
+RunState decode_run_state(const std::string& payload);
+
+// The number of input samples the controller of a decoded state needs back, oldest first: the last
+// `history_rows(state)` samples the run accepted.
+std::int64_t history_rows(const ControllerState& state);
+// Puts those samples back (time_s and inputs, oldest first); throws std::runtime_error when their
+// number or width does not match the state.
+void restore_history(ControllerState& state, std::vector<double> time_s, InputMatrix inputs);
+
+}  // namespace alc::runtime

@@ -1,0 +1,100 @@
+#include "runtime/driver.hpp"
+
+#include <chrono>
+
+namespace alc::runtime {
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+}  // namespace
+
+Cycle::Cycle(Kind kind, const Sample& sample, const ProbeMeasurement* probe, const ControllerOutput& out,
+             const Controller& controller, Phase phase_before, const CompensationSetup* setup,
+             const std::vector<int>* fields)
+    : kind_(kind), sample_(sample), probe_(probe), out_(out), controller_(controller), phase_before_(phase_before),
+      setup_(setup), fields_(fields) {}
+
+const kinematics::Compensation* Cycle::compensation() const {
+  if (!computed_) {
+    computed_ = true;
+    if (setup_ && fields_) {
+      kinematics::LocationErrors errors;
+      for (std::size_t k = 0; k < fields_->size(); ++k) {
+        const auto i = static_cast<Eigen::Index>(k);
+        if ((*fields_)[k] < 0 || i >= out_.prediction.size()) continue;
+        const double v = out_.prediction[i];
+        if (std::isfinite(v)) kinematics::set_location_error(errors, (*fields_)[k], v);
+      }
+      compensation_ = kinematics::compensate(setup_->chain, setup_->pose, errors);
+    }
+  }
+  return compensation_ ? &*compensation_ : nullptr;
+}
+
+Driver::Driver(Controller& controller) : controller_(controller) {
+  for (const auto& name : controller_.output_names()) {
+    fields_.push_back(kinematics::location_error_field(name));
+    if (fields_.back() >= 0) maps_any_ = true;
+  }
+}
+
+void Driver::set_machine(CompensationSetup setup) {
+  if (const std::string e = kinematics::validate(setup.chain); !e.empty())
+    throw std::invalid_argument("driver: machine chain: " + e);
+  setup_ = std::move(setup);
+}
+
+void Driver::notify(Cycle::Kind kind, const ProbeMeasurement* probe, const ControllerOutput& out, Phase before) {
+  const Cycle cycle(kind, *last_, probe, out, controller_, before, setup_ ? &*setup_ : nullptr,
+                    maps_any_ ? &fields_ : nullptr);
+  for (Observer* o : observers_) o->on_cycle(cycle);
+}
+
+ControllerOutput Driver::sample(const Sample& sample) {
+  const Phase before = controller_.phase();
+  const auto start = std::chrono::steady_clock::now();
+  ControllerOutput out = controller_.on_sample(sample.time_s, sample.inputs);
+  if (out.fit) identification_s_ += seconds_since(start);
+  if (!out.accepted) {
+    for (Observer* o : observers_) o->on_rejected(sample, nullptr, out.reason);
+    return out;
+  }
+  last_ = sample;
+  notify(Cycle::Kind::Sample, nullptr, out, before);
+  return out;
+}
+
+ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
+  const Phase before = controller_.phase();
+  const auto start = std::chrono::steady_clock::now();
+  ControllerOutput out = controller_.on_probe(probe);
+  if (out.fit) identification_s_ += seconds_since(start);
+  if (!out.accepted || !last_) {
+    const Sample none{};
+    for (Observer* o : observers_) o->on_rejected(last_ ? *last_ : none, &probe, out.reason);
+    return out;
+  }
+  notify(Cycle::Kind::Probe, &probe, out, before);
+  return out;
+}
+
+void Driver::sample_done() {
+  if (!last_) return;
+  for (Observer* o : observers_) o->on_sample_done(*last_, controller_, last_->index + 1);
+}
+
+std::size_t Driver::run(Source& source, double stop_time_s) {
+  std::size_t taken = 0;
+  while (auto s = source.next(stop_time_s)) {
+    ++taken;
+    const ControllerOutput out = sample(*s);
+    if (!out.accepted) continue;
+    if (auto p = source.probe(controller_.state().next_probe_due_s, *s)) probe(*p);
+    sample_done();
+  }
+  return taken;
+}
+
+}  // namespace alc::runtime

@@ -1,0 +1,142 @@
+#include "runtime/evaluation.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "alc/indicators.hpp"
+#include "probing/schedule.hpp"
+
+namespace alc::runtime {
+
+namespace {
+
+OutputIndicators evaluate(const std::string& name, const std::vector<double>& measured,
+                          const std::vector<double>& predicted) {
+  OutputIndicators r;
+  r.name = name;
+  r.kind = error_kind(name);
+  r.measurements = static_cast<int>(measured.size());
+  if (measured.empty()) {
+    r.PV = r.RMSE = r.P99 = r.SMAPE = r.P99_uncompensated = std::numeric_limits<double>::quiet_NaN();
+    return r;
+  }
+  r.PV = peak_value_percent(measured, predicted);
+  r.RMSE = rmse(measured, predicted);
+  r.P99 = p99_abs_residual(measured, predicted);
+  r.SMAPE = smape_percent(measured, predicted);
+  const std::vector<double> zero(measured.size(), 0.0);
+  r.P99_uncompensated = p99_abs_residual(measured, zero);
+  return r;
+}
+
+double mean_of(const std::vector<OutputIndicators>& outs, ErrorKind kind, double OutputIndicators::*field) {
+  double sum = 0.0;
+  int n = 0;
+  for (const auto& o : outs)
+    if (o.kind == kind && !std::isnan(o.*field)) {
+      sum += o.*field;
+      ++n;
+    }
+  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+double ReplayReport::mean_p99(ErrorKind kind, bool of_baseline) const {
+  return mean_of(of_baseline ? baseline : outputs, kind, &OutputIndicators::P99);
+}
+
+double ReplayReport::mean_p99_uncompensated(ErrorKind kind) const {
+  return mean_of(outputs, kind, &OutputIndicators::P99_uncompensated);
+}
+
+Evaluation::Evaluation(const scenarios::Scenario& scenario) : scenario_(scenario) {}
+
+void Evaluation::on_cycle(const Cycle& cycle) {
+  if (cycle.kind() != Cycle::Kind::Sample) return;
+  predicted_ = cycle.out().prediction;
+  const ControllerState& cs = cycle.controller().state();
+  if (!baseline_fitted_ && std::isfinite(cs.cp_end_s)) {
+    // Static baseline: MLR on the CP measurements, fitted once and never updated.
+    baseline_ = fit_static_regression(cs.history, scenario_.output_names, cs.probes).model;
+    baseline_fitted_ = true;
+  }
+}
+
+void Evaluation::on_sample_done(const Sample& sample, const Controller& controller, std::int64_t) {
+  rebuild(static_cast<std::size_t>(sample.index), predicted_, controller.state().cp_end_s);
+}
+
+void Evaluation::rebuild(std::size_t row, const Eigen::VectorXd& predicted, double cp_end_s) {
+  if (row >= scenario_.samples()) return;
+  const auto r = static_cast<Eigen::Index>(row);
+  if (scenario_.outputs.row(r).array().isNaN().all() || !(scenario_.time_s[row] >= cp_end_s)) return;
+  add(row, predicted);
+}
+
+void Evaluation::add(std::size_t row, const Eigen::VectorXd& predicted) {
+  const auto r = static_cast<Eigen::Index>(row);
+  const auto n = static_cast<Eigen::Index>(scenario_.output_names.size());
+  time_s_.push_back(scenario_.time_s[row]);
+  const Eigen::VectorXd inputs = scenario_.inputs.row(r).transpose();
+  const Eigen::VectorXd base = baseline_fitted_ ? baseline_.predict(inputs) : Eigen::VectorXd::Zero(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    measured_.push_back(scenario_.outputs(r, k));
+    predicted_rows_.push_back(predicted[k]);
+    baseline_rows_.push_back(base[k]);
+  }
+}
+
+void Evaluation::restore_baseline(bool fitted, StaticRegression baseline) {
+  baseline_fitted_ = fitted;
+  baseline_ = std::move(baseline);
+}
+
+ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) const {
+  ReplayReport rep;
+  const ControllerState& cs = controller.state();
+  rep.M = cs.probe_cycles;
+  rep.ng_phases = cs.ng_phases;
+  rep.updates = cs.updates;
+  rep.rejected_fits = cs.rejected_fits;
+  rep.cp_end_s = cs.cp_end_s;
+  const std::size_t last = std::min(rows, scenario_.samples());
+  rep.duration_s = last > 0 ? scenario_.time_s[last - 1] - scenario_.time_s.front() : 0.0;
+  rep.Pd = rep.duration_s > 0 ? probing::productivity_percent(rep.M, rep.duration_s)
+                              : std::numeric_limits<double>::quiet_NaN();
+  const std::size_t n = scenario_.output_names.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    std::vector<double> measured, predicted, baseline;
+    for (std::size_t i = 0; i < time_s_.size(); ++i) {
+      const double m = measured_[i * n + k];
+      if (std::isnan(m)) continue;
+      measured.push_back(m);
+      predicted.push_back(predicted_rows_[i * n + k]);
+      baseline.push_back(baseline_rows_[i * n + k]);
+    }
+    rep.outputs.push_back(evaluate(scenario_.output_names[k], measured, predicted));
+    rep.baseline.push_back(evaluate(scenario_.output_names[k], measured, baseline));
+  }
+  return rep;
+}
+
+scenarios::Scenario Evaluation::residuals() const {
+  scenarios::Scenario r;
+  const auto rows = static_cast<Eigen::Index>(time_s_.size());
+  const auto n = static_cast<Eigen::Index>(scenario_.output_names.size());
+  r.time_s = time_s_;
+  r.inputs.resize(rows, 0);
+  r.outputs.resize(rows, 2 * n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    r.output_names.push_back(scenario_.output_names[static_cast<std::size_t>(k)]);
+    r.output_names.push_back(scenario_.output_names[static_cast<std::size_t>(k)] + "_pred");
+  }
+  for (Eigen::Index i = 0; i < rows; ++i)
+    for (Eigen::Index k = 0; k < n; ++k) {
+      r.outputs(i, 2 * k) = measured_[static_cast<std::size_t>(i * n + k)];
+      r.outputs(i, 2 * k + 1) = predicted_rows_[static_cast<std::size_t>(i * n + k)];
+    }
+  return r;
+}
+
+}  // namespace alc::runtime

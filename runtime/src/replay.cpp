@@ -1,0 +1,182 @@
+#include "runtime/replay.hpp"
+
+#include <chrono>
+
+#include "runtime/history_recorder.hpp"
+#include "runtime/run_state.hpp"
+#include "storage/history_reader.hpp"
+
+namespace alc::runtime {
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+}  // namespace
+
+Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
+    : scenario_(scenario),
+      options_(std::move(options)),
+      controller_(std::make_unique<Controller>(scenario.input_names, scenario.output_names, options_.parameters,
+                                               options_.schedule)),
+      source_(scenario),
+      evaluation_(scenario) {
+  driver_ = std::make_unique<Driver>(*controller_);
+  driver_->add(evaluation_);
+  const bool machine = !options_.db.empty() || options_.nc.has_value();
+  if (machine) driver_->set_machine({options_.machine.chain, {}});
+  if (!options_.db.empty()) {
+    storage::WriterOptions w;
+    w.create_directories = true;
+    writer_ = std::make_unique<storage::HistoryWriter>(options_.db, w);
+    const storage::RunRecord record = run_record();
+    if (options_.resume) {
+      lifecycle_ = std::make_unique<RunLifecycle>(*writer_, options_.db, record, options_.snapshot_every_s,
+                                                  RunLifecycle::Resume{});
+      restore(*lifecycle_->resumed_from());
+    } else {
+      lifecycle_ = std::make_unique<RunLifecycle>(*writer_, record, options_.snapshot_every_s);
+    }
+    lifecycle_->set_encoder([this](std::int64_t) { return encode_state(); });
+    recorder_ = std::make_unique<HistoryRecorder>(*writer_, lifecycle_->run(), !record.offset_names.empty());
+    driver_->add(*recorder_);
+  }
+  if (options_.nc) {
+    NcObserverOptions o = nc_observer_options(options_.machine);
+    nc_.emplace(scenario.output_names, o);
+    if (writer_)
+      nc_->set_history({writer_.get(), lifecycle_->run(), nc_sink_name(options_.nc->dir), options_.nc->dialect,
+                        options_.machine.nc});
+    driver_->add(*nc_);
+  }
+  if (lifecycle_) {
+    driver_->add(*lifecycle_);  // after the recorders: a snapshot commits what they added
+    if (!options_.resume) lifecycle_->save_snapshot(*controller_, 0);  // a killed run can always resume
+  }
+  for (Observer* o : options_.observers) driver_->add(*o);
+}
+
+Replay::~Replay() = default;
+
+storage::RunRecord Replay::run_record() const {
+  storage::RunRecord r;
+  r.source = options_.source;
+  nlohmann::json identity = {{"parameters", canonical_parameters(options_.parameters,
+                                                                 controller_->schedule().name())}};
+  for (const auto& [k, v] : options_.identity.items()) identity[k] = v;
+  r.config_json = identity.dump();
+  r.software_version = options_.software_version;
+  r.input_names = scenario_.input_names;
+  r.output_names = scenario_.output_names;
+  // The offsets derived from each prediction, when an output is a C-axis error.
+  r.offset_names = HistoryRecorder::offset_names(options_.machine.chain, scenario_.output_names);
+  return r;
+}
+
+std::string Replay::encode_state() const {
+  RunState s;
+  s.next_index = static_cast<std::int64_t>(source_.position());
+  s.controller = controller_->state();
+  s.baseline_fitted = evaluation_.baseline_fitted();
+  s.baseline = evaluation_.baseline();
+  s.identification_s = driver_->identification_s();
+  s.total_s = total_s_;
+  return encode_run_state(s);
+}
+
+void Replay::restore(const storage::ControllerSnapshot& snapshot) {
+  RunState s = decode_run_state(snapshot.payload);
+  if (s.next_index < 0 || static_cast<std::size_t>(s.next_index) > scenario_.samples())
+    throw std::runtime_error(options_.db.string() + ": the snapshot continues at row " +
+                             std::to_string(s.next_index) + ", beyond the " + std::to_string(scenario_.samples()) +
+                             " rows of " + options_.source);
+  // The samples the controller keeps come back from the history; the evaluation is rebuilt from the
+  // stored predictions (the prediction active at each evaluated row).
+  const storage::HistoryReader reader(options_.db);
+  const auto samples = reader.input_samples(*run_id());
+  const auto predictions = reader.predictions(*run_id());
+  if (static_cast<std::int64_t>(samples.size()) != s.controller.samples || predictions.size() != samples.size())
+    throw std::runtime_error(options_.db.string() + ": run " + std::to_string(*run_id()) + " stores " +
+                             std::to_string(samples.size()) + " samples and " + std::to_string(predictions.size()) +
+                             " predictions before its snapshot, which counts " +
+                             std::to_string(s.controller.samples));
+  const std::int64_t first = s.controller.history_first_index;
+  const auto cols = static_cast<Eigen::Index>(scenario_.input_names.size());
+  std::vector<double> time_s;
+  InputMatrix inputs(static_cast<Eigen::Index>(samples.size()) - first, cols);
+  for (std::size_t k = static_cast<std::size_t>(first); k < samples.size(); ++k) {
+    const auto& rec = samples[k];
+    if (static_cast<Eigen::Index>(rec.values.size()) != cols)
+      throw std::runtime_error(options_.db.string() + ": stored sample " + std::to_string(rec.sample_index) +
+                               " has " + std::to_string(rec.values.size()) + " inputs");
+    time_s.push_back(rec.time_s);
+    for (Eigen::Index c = 0; c < cols; ++c) inputs(static_cast<Eigen::Index>(time_s.size()) - 1, c) = rec.values[static_cast<std::size_t>(c)];
+  }
+  restore_history(s.controller, std::move(time_s), std::move(inputs));
+  evaluation_.restore_baseline(s.baseline_fitted, s.baseline);
+  const double cp_end_s = s.controller.cp_end_s;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    const auto& p = predictions[k].predicted;
+    evaluation_.rebuild(static_cast<std::size_t>(samples[k].sample_index),
+                        Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size())), cp_end_s);
+  }
+  controller_ = std::make_unique<Controller>(scenario_.input_names, scenario_.output_names, options_.parameters,
+                                             std::move(s.controller), options_.schedule);
+  // The driver refers to the controller: a new one for the restored state, same observers.
+  auto driver = std::make_unique<Driver>(*controller_);
+  driver->add(evaluation_);
+  if (driver_->has_machine()) driver->set_machine(*driver_->machine());
+  driver->set_identification_s(s.identification_s);
+  driver_ = std::move(driver);
+  total_s_ = s.total_s;
+  source_.seek(static_cast<std::size_t>(s.next_index));
+}
+
+std::optional<storage::RunId> Replay::run_id() const {
+  if (!lifecycle_) return std::nullopt;
+  return lifecycle_->run();
+}
+
+void Replay::run() { run_until(options_.stop_time_s); }
+
+void Replay::run_until(double stop_time_s) {
+  const auto start = std::chrono::steady_clock::now();
+  driver_->run(source_, stop_time_s);
+  total_s_ += seconds_since(start);
+  if (ended_) return;
+  ended_ = true;
+  if (lifecycle_) {
+    lifecycle_->save_snapshot(*controller_, static_cast<std::int64_t>(source_.position()));
+    lifecycle_->end(finished());
+  }
+  if (nc_) {
+    const std::string sink = nc_sink_name(options_.nc->dir);
+    try {
+      nc_summary_ = nc::write_replay_nc_output(options_.nc->dir, options_.nc->dialect, nc_->commands(),
+                                               options_.machine.nc, options_.machine.limits);
+    } catch (const std::exception& e) {
+      if (lifecycle_) lifecycle_->record_delivery(sink, false, e.what());
+      if (writer_) writer_->close();
+      throw;
+    }
+    if (lifecycle_) lifecycle_->record_delivery(sink, true, "written to " + nc_summary_->program_file.string());
+  }
+  if (writer_) writer_->close();
+}
+
+ReplayReport Replay::report() const {
+  ReplayReport r = evaluation_.report(*controller_, source_.position());
+  r.identification_s = driver_->identification_s();
+  r.total_s = total_s_;
+  return r;
+}
+
+ReplayReport replay(const scenarios::Scenario& scenario, const AlcParameters& parameters) {
+  ReplayOptions o;
+  o.parameters = parameters;
+  Replay r(scenario, std::move(o));
+  r.run();
+  return r.report();
+}
+
+}  // namespace alc::runtime

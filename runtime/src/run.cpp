@@ -1,0 +1,110 @@
+#include "runtime/run.hpp"
+
+#include <cmath>
+
+#include "runtime/run_state.hpp"
+#include "storage/history_reader.hpp"
+
+namespace alc::runtime {
+
+namespace {
+
+nlohmann::json number(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return v;
+}
+
+}  // namespace
+
+nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view schedule) {
+  const IdentificationOptions& i = p.identification;
+  return {{"schedule", std::string(schedule)},
+          {"cp_duration_s", number(p.cp_duration_s)},
+          {"cp_interval_s", number(p.cp_interval_s)},
+          {"post_cp_interval_s", number(p.post_cp_interval_s)},
+          {"ng_interval_s", number(p.ng_interval_s)},
+          {"ng_measurements", number(p.ng_measurements)},
+          {"update_interval_s", number(p.update_interval_s)},
+          {"refit_on_probe", p.refit_on_probe},
+          {"confirm_breach", p.confirm_breach},
+          {"structure_refresh", number(p.structure_refresh)},
+          {"acl_linear_um", number(p.acl_linear_um)},
+          {"acl_angular_um_per_m", number(p.acl_angular_um_per_m)},
+          {"learning_window_s", number(p.learning_window_s)},
+          {"learning_since_s", number(p.learning_since_s)},
+          {"identification",
+           {{"method", i.method == IdentificationMethod::FixedPoles ? "fixed-poles" : "output-error"},
+            {"base_step_s", number(i.base_step_s)},
+            {"max_order", i.max_order},
+            {"tau_min_s", number(i.tau_min_s)},
+            {"tau_max_s", number(i.tau_max_s)},
+            {"pole_grid_size", i.pole_grid_size},
+            {"criterion", static_cast<int>(i.criterion)},
+            {"select_inputs", i.select_inputs},
+            {"max_inputs", i.max_inputs},
+            {"ridge", number(i.ridge)},
+            {"robust_loss", static_cast<int>(i.robust_loss)},
+            {"robust_scale_lin", number(i.robust_scale_lin)},
+            {"robust_scale_ang", number(i.robust_scale_ang)},
+            {"forgetting_half_life_s", number(i.forgetting_half_life_s)},
+            {"min_measurements", i.min_measurements},
+            {"output_limit_factor", number(i.output_limit_factor)},
+            {"max_iterations", i.max_iterations}}}};
+}
+
+RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRecord& record, double snapshot_every_s)
+    : writer_(writer), snapshot_every_s_(snapshot_every_s) {
+  run_ = writer_.begin_run(record);
+}
+
+RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
+                           const storage::RunRecord& record, double snapshot_every_s, Resume)
+    : writer_(writer), snapshot_every_s_(snapshot_every_s) {
+  std::optional<storage::RunRecord> found;
+  for (const auto& r : storage::HistoryReader(db).runs())
+    if (r.source == record.source &&
+        (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
+      found = r;
+  if (!found) throw ResumeRefused(db.string() + ": no unfinished run of '" + record.source + "' to resume");
+  if (found->config_json != record.config_json)
+    throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
+                        "' was started with other parameters: " + found->config_json + "; given: " +
+                        record.config_json);
+  run_ = found->run_id;
+  const storage::ResumePoint point = writer_.resume_run(run_);
+  if (point.snapshot.format != kRunStateFormat)
+    throw ResumeRefused(db.string() + ": run " + std::to_string(run_) + " has a snapshot of format '" +
+                        point.snapshot.format + "', this program resumes " + kRunStateFormat);
+  resumed_from_ = point.snapshot;
+}
+
+void RunLifecycle::save_snapshot(const Controller& controller, std::int64_t next_index) {
+  const ControllerState& c = controller.state();
+  storage::ControllerSnapshot snap;
+  snap.run_id = run_;
+  snap.next_sample_index = next_index;
+  snap.time_s = c.started ? c.now_s : storage::kSnapshotBeforeStart_s;
+  snap.format = kRunStateFormat;
+  snap.is_json = false;
+  snap.payload = encoder_ ? encoder_(next_index) : std::string();
+  writer_.save_snapshot(snap);
+  // Before the first sample the start time is not known yet: on_sample_done() counts from it then.
+  next_snapshot_s_ = c.started ? c.now_s + snapshot_every_s_ : -kInf;
+}
+
+void RunLifecycle::on_sample_done(const Sample&, const Controller& controller, std::int64_t next_index) {
+  const ControllerState& c = controller.state();
+  if (next_snapshot_s_ == -kInf) next_snapshot_s_ = c.start_time_s + snapshot_every_s_;
+  if (c.now_s >= next_snapshot_s_) save_snapshot(controller, next_index);
+}
+
+void RunLifecycle::record_delivery(const std::string& sink, bool delivered, const std::string& message) {
+  writer_.record_delivery(run_, sink, delivered, message);
+}
+
+void RunLifecycle::end(bool finished) {
+  writer_.end_run(run_, finished ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
+}
+
+}  // namespace alc::runtime

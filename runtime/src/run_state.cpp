@@ -1,0 +1,148 @@
+#include "runtime/run_state.hpp"
+
+#include <stdexcept>
+
+#include "common/byte_codec.hpp"
+#include "storage/model_json.hpp"
+
+namespace alc::runtime {
+
+namespace {
+
+using common::ByteReader;
+using common::ByteWriter;
+
+void encode_controller(ByteWriter& e, const ControllerState& c) {
+  e.i32(static_cast<std::int32_t>(c.phase));
+  e.f64(c.phase_start_s);
+  e.f64(c.start_time_s);
+  e.boolean(c.started);
+  e.f64(c.now_s);
+  e.f64(c.cp_end_s);
+  e.f64(c.next_probe_due_s);
+  e.f64(c.current_interval_s);
+  e.f64(c.last_update_s);
+  for (int v : {c.probe_cycles, c.ng_probes, c.ng_phases, c.updates, c.rejected_fits, c.probes_at_last_attempt})
+    e.i32(v);
+  e.f64(c.structure_span_s);
+  e.i32(c.breach_probe);
+  e.vector(c.breach_residual);
+  e.strings(c.history.input_names);
+  e.i64(c.history_first_index);
+  e.i64(c.samples);
+  e.u64(c.probes.size());
+  for (const auto& p : c.probes) {
+    e.f64(p.time_s);
+    e.u64(p.sample_index);
+    e.vector(p.errors);
+    e.f64(p.weight);
+  }
+  e.boolean(c.has_model);
+  e.string(c.has_model ? storage::thermal_model_to_json(c.predictor.model()) : std::string());
+  e.vector(c.has_model ? c.predictor.state() : Eigen::VectorXd());
+  e.vector(c.prediction);
+}
+
+ControllerState decode_controller(ByteReader& d) {
+  ControllerState c;
+  const std::int32_t phase = d.i32("phase");
+  if (phase < 0 || phase > 2) throw std::runtime_error("run state: unknown phase " + std::to_string(phase));
+  c.phase = static_cast<Phase>(phase);
+  c.phase_start_s = d.f64("phase_start_s");
+  c.start_time_s = d.f64("start_time_s");
+  c.started = d.boolean("started");
+  c.now_s = d.f64("now_s");
+  c.cp_end_s = d.f64("cp_end_s");
+  c.next_probe_due_s = d.f64("next_probe_due_s");
+  c.current_interval_s = d.f64("current_interval_s");
+  c.last_update_s = d.f64("last_update_s");
+  for (int* v : {&c.probe_cycles, &c.ng_probes, &c.ng_phases, &c.updates, &c.rejected_fits, &c.probes_at_last_attempt})
+    *v = d.i32("counter");
+  c.structure_span_s = d.f64("structure_span_s");
+  c.breach_probe = d.i32("breach_probe");
+  c.breach_residual = d.vector("breach_residual");
+  c.history.input_names = d.strings("input_names");
+  c.history.inputs.resize(0, static_cast<Eigen::Index>(c.history.input_names.size()));
+  c.history_first_index = d.i64("history_first_index");
+  c.samples = d.i64("samples");
+  if (c.history_first_index < 0 || c.samples < c.history_first_index)
+    throw std::runtime_error("run state: history rows " + std::to_string(c.history_first_index) + ".." +
+                             std::to_string(c.samples) + " are not a range");
+  const std::uint64_t probes = d.u64("probe count");
+  if (probes > d.remaining()) throw std::runtime_error("run state: corrupt probe count");
+  c.probes.resize(static_cast<std::size_t>(probes));
+  for (auto& p : c.probes) {
+    p.time_s = d.f64("probe time_s");
+    p.sample_index = static_cast<std::size_t>(d.u64("probe sample_index"));
+    p.errors = d.vector("probe errors");
+    p.weight = d.f64("probe weight");
+  }
+  c.has_model = d.boolean("has_model");
+  const std::string model = d.string("model");
+  const Eigen::VectorXd predictor_state = d.vector("predictor state");
+  if (c.has_model) {
+    c.predictor = ModelPredictor(storage::thermal_model_from_json(model));
+    c.predictor.set_state(predictor_state);
+  }
+  c.prediction = d.vector("prediction");
+  return c;
+}
+
+}  // namespace
+
+std::string encode_run_state(const RunState& s) {
+  ByteWriter e;
+  e.write_header(kRunStateFormat, kRunStateVersion);
+  e.i64(s.next_index);
+  encode_controller(e, s.controller);
+  e.boolean(s.baseline_fitted);
+  e.strings(s.baseline.input_names);
+  e.strings(s.baseline.output_names);
+  e.vector(s.baseline.intercept);
+  e.matrix(s.baseline.coefficients);
+  e.f64(s.identification_s);
+  e.f64(s.total_s);
+  const std::uint64_t sum = common::checksum64(e.bytes());
+  e.u64(sum);
+  return e.take();
+}
+
+RunState decode_run_state(const std::string& payload) {
+  if (payload.size() < 8) throw std::runtime_error("run state: payload is truncated");
+  const std::string_view body(payload.data(), payload.size() - 8);
+  ByteReader tail(std::string_view(payload).substr(payload.size() - 8), "run state checksum");
+  if (tail.u64("checksum") != common::checksum64(body))
+    throw std::runtime_error("run state: checksum mismatch (the snapshot is damaged)");
+  ByteReader d(body, "run state");
+  const std::uint32_t version = d.read_header(kRunStateFormat);
+  if (version != kRunStateVersion)
+    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads " +
+                             std::to_string(kRunStateVersion));
+  RunState s;
+  s.next_index = d.i64("next_index");
+  s.controller = decode_controller(d);
+  s.baseline_fitted = d.boolean("baseline_fitted");
+  s.baseline.input_names = d.strings("baseline inputs");
+  s.baseline.output_names = d.strings("baseline outputs");
+  s.baseline.intercept = d.vector("baseline intercept");
+  s.baseline.coefficients = d.matrix("baseline coefficients");
+  s.identification_s = d.f64("identification_s");
+  s.total_s = d.f64("total_s");
+  d.expect_done();
+  return s;
+}
+
+std::int64_t history_rows(const ControllerState& state) { return state.samples - state.history_first_index; }
+
+void restore_history(ControllerState& state, std::vector<double> time_s, InputMatrix inputs) {
+  const auto need = history_rows(state);
+  if (static_cast<std::int64_t>(time_s.size()) != need || inputs.rows() != need ||
+      inputs.cols() != static_cast<Eigen::Index>(state.history.input_names.size()))
+    throw std::runtime_error("run state: " + std::to_string(time_s.size()) + " stored samples of " +
+                             std::to_string(inputs.cols()) + " inputs to restore, the state needs " +
+                             std::to_string(need) + " of " + std::to_string(state.history.input_names.size()));
+  state.history.time_s = std::move(time_s);
+  state.history.inputs = std::move(inputs);
+}
+
+}  // namespace alc::runtime
