@@ -87,6 +87,11 @@ void Evaluation::add(std::size_t row, const Eigen::VectorXd& predicted) {
   }
 }
 
+Eigen::VectorXd Evaluation::baseline_at(std::size_t i) const {
+  const auto n = static_cast<Eigen::Index>(scenario_.output_names.size());
+  return Eigen::Map<const Eigen::VectorXd>(baseline_rows_.data() + i * static_cast<std::size_t>(n), n);
+}
+
 void Evaluation::restore_baseline(bool fitted, StaticRegression baseline) {
   baseline_fitted_ = fitted;
   baseline_ = std::move(baseline);

@@ -444,17 +444,108 @@ TEST_CASE("controller: invalid parameters are refused naming the field and value
   CHECK_THROWS_WITH(Controller({"T"}, {"E_X0C"}, p), "acl_linear_um = -1: must be positive and finite");
 }
 
-TEST_CASE("controller: samples out of order and malformed probes are refused") {
+TEST_CASE("controller: bad samples and probes are rejected with a reason and change nothing") {
   Controller c({"T"}, {"E_X0C"}, test_parameters());
   Eigen::VectorXd u(1);
   u << 20.0;
-  c.on_sample(60.0, u);
-  CHECK_THROWS_AS(c.on_sample(60.0, u), std::invalid_argument);
-  CHECK_THROWS_AS(c.on_probe(ProbeMeasurement{30.0, Eigen::VectorXd::Zero(1), {}}), std::invalid_argument);
-  CHECK_THROWS_AS(c.on_probe(ProbeMeasurement{90.0, Eigen::VectorXd::Zero(2), {}}), std::invalid_argument);
+  CHECK_FALSE(c.on_probe(ProbeMeasurement{0.0, Eigen::VectorXd::Zero(1), {}}).accepted);  // before any sample
+  REQUIRE(c.on_sample(60.0, u).accepted);
+  const ControllerState before = c.state();
+  auto rejected = [&](const ControllerOutput& out, const std::string& says) {
+    INFO(out.reason);
+    CHECK_FALSE(out.accepted);
+    CHECK(out.reason.find(says) != std::string::npos);
+    CHECK(out.events.empty());
+    CHECK(c.state().samples == before.samples);
+    CHECK(c.state().probe_cycles == before.probe_cycles);
+    CHECK(c.state().now_s == before.now_s);
+    CHECK(c.state().history.time_s == before.history.time_s);
+  };
+  rejected(c.on_sample(60.0, u), "not after the previous one");
+  rejected(c.on_sample(30.0, u), "not after the previous one");
+  rejected(c.on_probe(ProbeMeasurement{30.0, Eigen::VectorXd::Zero(1), {}}), "before the latest sample");
+  rejected(c.on_probe(ProbeMeasurement{90.0, Eigen::VectorXd::Zero(2), {}}), "2 errors, expected 1");
+  rejected(c.on_probe(ProbeMeasurement{90.0, Eigen::VectorXd::Constant(1, kInf), {}}), "E_X0C is inf");
+  rejected(c.on_probe(ProbeMeasurement{90.0, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Zero(3)}), "compensation has 3");
   Eigen::VectorXd bad(1);
   bad << std::nan("");
-  CHECK_THROWS_AS(c.on_sample(120.0, bad), std::invalid_argument);
+  rejected(c.on_sample(120.0, bad), "input 'T' is nan");
+  bad << -kInf;
+  rejected(c.on_sample(120.0, bad), "input 'T' is -inf");
+  rejected(c.on_sample(120.0, Eigen::VectorXd::Zero(2)), "2 inputs, expected 1");
+  rejected(c.on_sample(std::nan(""), u), "not finite");
+  // And the controller goes on as if nothing had come.
+  const ControllerOutput ok = c.on_sample(120.0, u);
+  CHECK(ok.accepted);
+  CHECK(c.state().samples == 2);
+}
+
+TEST_CASE("controller: after CP, memory holds the learning window plus the warm-up, not the whole run") {
+  // One sample a minute for 40 days with a 2-day window: the history is trimmed to the window, the
+  // warm-up of the slowest lag (5 x 20 h) and at most a quarter window of slack.
+  AlcParameters p = test_parameters();
+  p.learning_window_s = 2 * 86400.0;
+  p.post_cp_interval_s = 6 * 3600.0;
+  Controller c({"T"}, {"E_X0C"}, p);
+  Eigen::VectorXd u(1);
+  const double bound_s = p.learning_window_s * 1.25 + kWarmupTimeConstants * p.identification.tau_max_s;
+  std::size_t largest = 0;
+  for (int k = 0; k < 40 * 1440; ++k) {
+    const double t = k * 60.0;
+    u << 20.0 + 2.0 * std::sin(t / 20000.0);
+    const ControllerOutput out = c.on_sample(t, u);
+    REQUIRE(out.accepted);
+    if (t >= out.next_probe_due_s) {
+      Eigen::VectorXd e(1);
+      e << 3.0 * (u[0] - 20.0);
+      c.on_probe(ProbeMeasurement{t, e, {}});
+    }
+    const ControllerState& s = c.state();
+    largest = std::max(largest, s.history.time_s.size());
+    if (k % 1440 == 0 && s.phase != Phase::Calibration) {
+      INFO("day " << k / 1440);
+      CHECK(s.history.time_s.back() - s.history.time_s.front() <= bound_s);
+      CHECK(s.history_first_index + static_cast<std::int64_t>(s.history.time_s.size()) == s.samples);
+      CHECK(s.history.inputs.rows() == static_cast<Eigen::Index>(s.history.time_s.size()));
+      for (const ProbeRecord& pr : s.probes) {
+        REQUIRE(pr.sample_index < s.history.time_s.size());
+        CHECK(s.history.time_s[pr.sample_index] <= pr.time_s);
+      }
+    }
+  }
+  CHECK(c.state().samples == 40 * 1440);
+  CHECK(c.state().history_first_index > 30 * 1440);  // most of the run is gone from memory
+  CHECK(largest <= static_cast<std::size_t>(bound_s / 60.0) + 2);
+  CHECK(c.state().updates > 10);  // and it kept learning from the probes of its window
+}
+
+TEST_CASE("controller: another schedule policy is consulted without touching the phase logic") {
+  // A policy that probes every 30 min after CP, whatever the paper's interval says.
+  struct Every30 : probing::PaperSchedule {
+    using PaperSchedule::PaperSchedule;
+    std::string_view name() const override { return "every-30-min"; }
+    double interval(Phase phase) const override {
+      return phase == Phase::PostCalibration ? 1800.0 : PaperSchedule::interval(phase);
+    }
+  };
+  AlcParameters p = test_parameters();
+  Controller c({"T"}, {"E_X0C"}, p, std::make_shared<const Every30>(p.schedule()));
+  CHECK(c.schedule().name() == "every-30-min");
+  Eigen::VectorXd u(1);
+  std::vector<double> post_cp;
+  for (int k = 0; k < 24 * 60; ++k) {
+    const double t = k * 60.0;
+    u << 20.0 + std::sin(t / 5000.0);
+    const ControllerOutput out = c.on_sample(t, u);
+    if (t >= out.next_probe_due_s) {
+      if (c.phase() == Phase::PostCalibration) post_cp.push_back(t);
+      Eigen::VectorXd e(1);
+      e << 2.0 * (u[0] - 20.0);
+      c.on_probe(ProbeMeasurement{t, e, {}});
+    }
+  }
+  REQUIRE(post_cp.size() > 10);
+  for (std::size_t i = 1; i < post_cp.size(); ++i) CHECK(post_cp[i] - post_cp[i - 1] == 1800.0);
 }
 
 TEST_CASE("controller: closed loop learns measured residual plus the active compensation") {

@@ -1,6 +1,6 @@
 #pragma once
 // Probing against a recording: what a probe cycle would have read.
-// DESIGN.md: a scheduled probe at time t takes the first recorded measurement at or after t.
+// docs/design.md ("Probing semantics on a recording"): a scheduled probe at time t takes the first recorded measurement at or after t.
 #include <Eigen/Core>
 #include <cstddef>
 #include <optional>

@@ -67,6 +67,8 @@ class Evaluation : public Observer {
   // prediction of that sample), if the row is a recorded measurement at or after `cp_end_s`.
   void rebuild(std::size_t row, const Eigen::VectorXd& predicted, double cp_end_s);
   std::size_t evaluated() const { return time_s_.size(); }
+  double time_at(std::size_t i) const { return time_s_[i]; }               // [s] of evaluated row i
+  Eigen::VectorXd baseline_at(std::size_t i) const;                         // the baseline's prediction there
 
  private:
   void add(std::size_t row, const Eigen::VectorXd& predicted);

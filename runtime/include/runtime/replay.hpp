@@ -62,6 +62,7 @@ class Replay {
   ReplayReport report() const;
   scenarios::Scenario residuals() const { return evaluation_.residuals(); }
   const Controller& controller() const { return *controller_; }
+  const Evaluation& evaluation() const { return evaluation_; }
   Driver& driver() { return *driver_; }
   std::optional<storage::RunId> run_id() const;
   const NcCommandObserver* nc() const { return nc_ ? &*nc_ : nullptr; }

@@ -3,10 +3,16 @@
 #include <cmath>
 #include <limits>
 
-#include "scenarios/replay.hpp"
+#include <filesystem>
+#include <unistd.h>
+
+#include "runtime/replay.hpp"
+#include "runtime_test_support.hpp"
 
 using namespace alc;
-using namespace alc::scenarios;
+using namespace alc::runtime;
+using namespace alc::runtime::test;
+using alc::scenarios::Scenario;
 
 namespace {
 
@@ -55,10 +61,10 @@ AlcParameters parameters() {
 }
 
 // Records the times at which the controller probed.
-struct ProbeTimes : ReplayObserver {
+struct ProbeTimes : Observer {
   std::vector<double> times;
-  void on_probe(std::size_t, const ProbeMeasurement& probe, const ControllerOutput&) override {
-    times.push_back(probe.time_s);
+  void on_cycle(const Cycle& cycle) override {
+    if (cycle.kind() == Cycle::Kind::Probe) times.push_back(cycle.probe()->time_s);
   }
 };
 
@@ -68,8 +74,8 @@ TEST_CASE("replay: a probe takes the first recorded measurement at or after its 
   // Measurements only every 7 min: CP probes due every 5 min land on the next 7-min row.
   const Scenario s = synthetic(7);
   ProbeTimes probes;
-  ReplaySession session(s, parameters());
-  session.run(kInf, &probes);
+  Replay session(s, in_memory(parameters(), &probes));
+  session.run();
   REQUIRE(probes.times.size() > 3);
   CHECK(probes.times[0] == 0.0);
   CHECK(probes.times[1] == 7 * kMinute);   // due at 5 min
@@ -80,7 +86,7 @@ TEST_CASE("replay: a probe takes the first recorded measurement at or after its 
 
 TEST_CASE("replay: evaluation uses every recorded measurement after CP, and Pd follows Eq. 7") {
   const Scenario s = synthetic(5);
-  ReplaySession session(s, parameters());
+  Replay session(s, in_memory(parameters()));
   session.run();
   const ReplayReport r = session.report();
   REQUIRE(r.cp_end_s == 3 * kHour);
@@ -91,8 +97,8 @@ TEST_CASE("replay: evaluation uses every recorded measurement after CP, and Pd f
   CHECK(r.baseline[0].measurements == expected);
   CHECK(r.duration_s == s.time_s.back());
   ProbeTimes probes;
-  ReplaySession again(s, parameters());
-  again.run(kInf, &probes);
+  Replay again(s, in_memory(parameters(), &probes));
+  again.run();
   CHECK(static_cast<int>(probes.times.size()) == r.M);  // M counts every probe cycle the controller took
   CHECK_THAT(r.Pd, Catch::Matchers::WithinAbs((1.0 - r.M * 95.0 / r.duration_s) * 100.0, 1e-12));
   // The model can represent this plant: the compensated P99 is far below the uncompensated one.
@@ -115,11 +121,19 @@ TEST_CASE("replay: stopping and resuming from the saved state gives the same res
   const Scenario s = synthetic(5, 8.0, 10.0);
   const ReplayReport whole = replay(s, parameters());
   for (double stop_h : {0.5, 3.0, 10.05, 11.0, 20.0}) {
-    ReplaySession first(s, parameters());
-    first.run(stop_h * kHour);
-    CHECK_FALSE(first.finished());
-    const ReplayState saved = first.state();
-    ReplaySession second(s, parameters(), saved);
+    const auto db = temp_db("stop");
+    ReplayOptions o = in_memory(parameters());
+    o.source = "synthetic";
+    o.db = db;
+    o.stop_time_s = stop_h * kHour;
+    {
+      Replay first(s, o);
+      first.run();
+      CHECK_FALSE(first.finished());
+    }
+    o.resume = true;
+    o.stop_time_s = kInf;
+    Replay second(s, o);
     second.run();
     CHECK(second.finished());
     const ReplayReport resumed = second.report();
@@ -136,25 +150,26 @@ TEST_CASE("replay: stopping and resuming from the saved state gives the same res
 TEST_CASE("replay: the static baseline is fitted once on the CP measurements and never updated") {
   // A step at 12 h that ALC re-learns; the baseline must not (it would if it were refitted).
   const Scenario s = synthetic(5, 8.0, 12.0);
-  ReplaySession session(s, parameters());
+  Replay session(s, in_memory(parameters()));
   session.run();
-  const ReplayState st = session.state();
-  REQUIRE(st.baseline_fitted);
-  REQUIRE(st.controller.updates >= 2);
-  const double cp_end = st.controller.cp_end_s;
+  const ControllerState& st = session.controller().state();
+  const Evaluation& ev = session.evaluation();
+  REQUIRE(ev.baseline_fitted());
+  REQUIRE(st.updates >= 2);
+  const double cp_end = st.cp_end_s;
   REQUIRE(cp_end == 3 * kHour);
   std::vector<ProbeRecord> cp_probes;
-  for (const ProbeRecord& p : st.controller.probes)
+  for (const ProbeRecord& p : st.probes)
     if (p.time_s <= cp_end) cp_probes.push_back(p);
   REQUIRE(cp_probes.size() == 36);  // 0, 5, ..., 175 min
   // What a fit on the CP probes alone predicts, at every evaluated measurement.
-  const StaticRegression expected = fit_static_regression(st.controller.history, s.output_names, cp_probes).model;
-  REQUIRE(!st.eval_time_s.empty());
-  for (std::size_t i = 0; i < st.eval_time_s.size(); ++i) {
-    const auto row = static_cast<Eigen::Index>(std::lround(st.eval_time_s[i] / kMinute));
-    REQUIRE(s.time_s[static_cast<std::size_t>(row)] == st.eval_time_s[i]);
-    INFO("t = " << st.eval_time_s[i] << " s");
-    CHECK(st.eval_baseline[i] == expected.predict(s.inputs.row(row).transpose()));
+  const StaticRegression expected = fit_static_regression(st.history, s.output_names, cp_probes).model;
+  REQUIRE(ev.evaluated() > 0);
+  for (std::size_t i = 0; i < ev.evaluated(); ++i) {
+    const auto row = static_cast<Eigen::Index>(std::lround(ev.time_at(i) / kMinute));
+    REQUIRE(s.time_s[static_cast<std::size_t>(row)] == ev.time_at(i));
+    INFO("t = " << ev.time_at(i) << " s");
+    CHECK(ev.baseline_at(i) == expected.predict(s.inputs.row(row).transpose()));
   }
   // After the step, the baseline keeps its error while ALC learns it.
   const ReplayReport r = session.report();

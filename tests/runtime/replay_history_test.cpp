@@ -10,14 +10,16 @@
 #include <optional>
 #include <random>
 
-#include "scenarios/load_cases.hpp"
-#include "scenarios/replay_history.hpp"
-#include "scenarios/replay_nc.hpp"
 #include "nc_interface/jsonl.hpp"
+#include "runtime/history_recorder.hpp"
+#include "runtime/replay.hpp"
+#include "scenarios/load_cases.hpp"
 #include "storage/history_reader.hpp"
 
 using namespace alc;
-using namespace alc::scenarios;
+using namespace alc::runtime;
+using alc::scenarios::Scenario;
+using alc::scenarios::simulate_case;
 
 namespace {
 
@@ -33,14 +35,13 @@ struct TempDir {
   }
 };
 
-// Begins a run of `sc` in `writer` with offsets of `chain` as `alc replay --db` records them.
-storage::RunId begin_run(storage::HistoryWriter& writer, const Scenario& sc, const kinematics::MachineChain& chain) {
-  storage::RunRecord r;
-  r.source = "test";
-  r.input_names = sc.input_names;
-  r.output_names = sc.output_names;
-  r.offset_names = HistoryRecorder::offset_names(chain, sc.output_names);
-  return writer.begin_run(r);
+// A replay recorded in `file` as `alc replay --db` records it.
+ReplayOptions recorded(const std::filesystem::path& file, AlcParameters p = {}) {
+  ReplayOptions o;
+  o.parameters = std::move(p);
+  o.source = "test";
+  o.db = file;
+  return o;
 }
 
 }  // namespace
@@ -53,13 +54,12 @@ TEST_CASE("replay history: every prediction is stored with the axis offsets that
   const auto chain = kinematics::MachineChain::bc_trunnion();  // not the default: the names follow the chain
   storage::RunId run = 0;
   {
-    storage::HistoryWriter writer(file);
-    run = begin_run(writer, sc, chain);
-    ReplaySession session(sc, AlcParameters{});
-    HistoryRecorder recorder(writer, run, session.controller());
-    recorder.record_offsets(chain, sc.output_names);
-    session.run(12 * 3600.0, &recorder);
-    writer.end_run(run, storage::RunStatus::Stopped);
+    ReplayOptions o = recorded(file);
+    o.machine.chain = chain;
+    o.stop_time_s = 12 * 3600.0;
+    Replay replay(sc, o);
+    replay.run();
+    run = *replay.run_id();
   }
   const storage::HistoryReader reader(file);
   CHECK(reader.runs().at(0).offset_names == std::vector<std::string>{"X_um", "Y_um", "Z_um", "B_urad", "C_urad"});
@@ -90,13 +90,11 @@ TEST_CASE("replay history: a run's offset channels exist exactly when some outpu
   // count of every vector against the run's channels).
   const Scenario s16 = simulate_case("S16").scenario;
   const TempDir dir;
-  storage::HistoryWriter writer(dir.path / "s16.sqlite");
-  const storage::RunId run = begin_run(writer, s16, chain);
-  ReplaySession session(s16, AlcParameters{});
-  HistoryRecorder recorder(writer, run, session.controller());
-  recorder.record_offsets(chain, s16.output_names);
-  session.run(s16.time_s.front() + 600.0, &recorder);
-  writer.commit();
+  ReplayOptions o = recorded(dir.path / "s16.sqlite");
+  o.stop_time_s = s16.time_s.front() + 600.0;
+  Replay replay(s16, o);
+  replay.run();
+  const storage::RunId run = *replay.run_id();
   const auto predictions = storage::HistoryReader(dir.path / "s16.sqlite").predictions(run);
   REQUIRE_FALSE(predictions.empty());
   CHECK(predictions.front().offsets.empty());
@@ -104,23 +102,15 @@ TEST_CASE("replay history: a run's offset channels exist exactly when some outpu
 
 namespace {
 
-// Forwards to the history recorder and notes, for every probe, the controller's phase when the probe
-// was taken: the phase after the row's sample, before the controller handles the probe.
-struct PhaseAtProbe : ReplayObserver {
-  const Controller& controller;
-  ReplayObserver& next;
+// Notes, for every probe, the controller's phase when the probe was taken: the phase after the
+// row's sample, before the controller handles the probe.
+struct PhaseAtProbe : Observer {
   Phase before_probe = Phase::Calibration;
   std::vector<Phase> phases;
-  PhaseAtProbe(const Controller& c, ReplayObserver& n) : controller(c), next(n) {}
-  void on_sample(std::size_t row, double t, const Eigen::VectorXd& u, const ControllerOutput& out) override {
-    before_probe = controller.phase();
-    next.on_sample(row, t, u, out);
+  void on_cycle(const Cycle& cycle) override {
+    if (cycle.kind() == Cycle::Kind::Sample) before_probe = cycle.controller().phase();
+    else phases.push_back(before_probe);
   }
-  void on_probe(std::size_t row, const ProbeMeasurement& p, const ControllerOutput& out) override {
-    phases.push_back(before_probe);
-    next.on_probe(row, p, out);
-  }
-  void on_row_done(const ReplaySession& session) override { next.on_row_done(session); }
 };
 
 }  // namespace
@@ -137,15 +127,13 @@ TEST_CASE("replay history: a probe is stored with the phase it was taken in, als
   storage::RunId run = 0;
   std::vector<Phase> expected;
   {
-    storage::HistoryWriter writer(file);
-    const auto chain = kinematics::MachineChain::ac_trunnion();
-    run = begin_run(writer, sc, chain);
-    ReplaySession session(sc, AlcParameters{});
-    HistoryRecorder recorder(writer, run, session.controller());
-    recorder.record_offsets(chain, sc.output_names);
-    PhaseAtProbe tap(session.controller(), recorder);
-    session.run(sc.time_s.front() + 24 * 3600.0, &tap);
-    writer.end_run(run, storage::RunStatus::Stopped);
+    PhaseAtProbe tap;
+    ReplayOptions o = recorded(file);
+    o.stop_time_s = sc.time_s.front() + 24 * 3600.0;
+    o.observers.push_back(&tap);
+    Replay replay(sc, o);
+    replay.run();
+    run = *replay.run_id();
     expected = tap.phases;
   }
   const storage::HistoryReader reader(file);
@@ -178,20 +166,16 @@ TEST_CASE("replay history: a probe is stored with the phase it was taken in, als
 TEST_CASE("replay history: NC commands are stored with the safety gate's verdict before they reach the sink") {
   // Limits so tight that the first model's offsets are refused: accepted = 0 with the gate's reason.
   const Scenario sc = simulate_case("A").scenario;
-  NcObserverOptions options;
-  options.limits.max_offset.x_mm = 0.002;
-  NcCommandObserver nc_observer(sc.output_names, options);
   const TempDir dir;
   const auto file = dir.path / "nc.sqlite";
-  storage::RunId run = 0;
-  {
-    storage::HistoryWriter writer(file);
-    run = begin_run(writer, sc, options.chain);
-    nc_observer.set_history({&writer, run, "file:" + (dir.path / "out").string(), nc::Dialect::LinuxCNC, {}});
-    ReplaySession session(sc, AlcParameters{});
-    session.run(sc.time_s.front() + 12 * 3600.0, &nc_observer);
-    writer.end_run(run, storage::RunStatus::Stopped);
-  }
+  ReplayOptions o = recorded(file);
+  o.machine.limits.max_offset.x_mm = 0.002;
+  o.nc = NcOutputSetup{dir.path / "out", nc::Dialect::LinuxCNC};
+  o.stop_time_s = sc.time_s.front() + 12 * 3600.0;
+  Replay replay(sc, o);
+  replay.run();
+  const storage::RunId run = *replay.run_id();
+  const NcCommandObserver& nc_observer = *replay.nc();
   const auto rows = storage::HistoryReader(file).nc_commands(run);
   const auto& decisions = nc_observer.recorder().decisions();
   REQUIRE(rows.size() == decisions.size());
@@ -236,25 +220,15 @@ TEST_CASE("replay history: snapshots every period from the run's first sample, a
   const double t0 = 1.0e6;  // a recording whose time does not start at 0
   for (double& t : sc.time_s) t += t0;
   const double h = 3600.0;
-  const auto chain = kinematics::MachineChain::ac_trunnion();
   const TempDir dir;
-  // As `alc replay --db [--stop-at] [--resume]` drives the recorder, with a 2 h period.
+  // As `alc replay --db [--stop-at] [--resume]` runs, with a 2 h period.
   auto record = [&](const std::filesystem::path& file, double stop_s, bool resume) {
-    storage::HistoryWriter writer(file);
-    std::optional<ReplaySession> session;
-    storage::RunId run = 1;
-    if (resume) {
-      session.emplace(sc, AlcParameters{}, decode_replay_state(writer.resume_run(run).snapshot.payload));
-    } else {
-      run = begin_run(writer, sc, chain);
-      session.emplace(sc, AlcParameters{});
-    }
-    HistoryRecorder recorder(writer, run, session->controller(), 2 * h);
-    recorder.record_offsets(chain, sc.output_names);
-    if (!resume) recorder.save_snapshot(*session);
-    session->run(stop_s, &recorder);
-    recorder.save_snapshot(*session);
-    writer.end_run(run, storage::RunStatus::Stopped);
+    ReplayOptions o = recorded(file);
+    o.snapshot_every_s = 2 * h;
+    o.stop_time_s = stop_s;
+    o.resume = resume;
+    Replay replay(sc, o);
+    replay.run();
   };
   const auto whole = dir.path / "whole.sqlite", resumed = dir.path / "resumed.sqlite";
   record(whole, t0 + 9 * h, false);
@@ -300,16 +274,11 @@ TEST_CASE("replay history: a model parameter set stores the first probe time its
     const auto file = dir.path / name;
     storage::RunId run = 0;
     {
-      storage::HistoryWriter writer(file);
-      storage::RunRecord r;  // no offset channels: this test is about the fits
-      r.source = "test";
-      r.input_names = sc.input_names;
-      r.output_names = sc.output_names;
-      run = writer.begin_run(r);
-      ReplaySession session(sc, p);
-      HistoryRecorder recorder(writer, run, session.controller());
-      session.run(30 * 3600.0, &recorder);
-      writer.end_run(run, storage::RunStatus::Stopped);
+      ReplayOptions o = recorded(file, p);
+      o.stop_time_s = 30 * 3600.0;
+      Replay replay(sc, o);
+      replay.run();
+      run = *replay.run_id();
     }
     return storage::HistoryReader(file).model_parameter_sets(run);
   };

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -20,13 +21,13 @@
 #include "nc_interface/jsonl.hpp"
 #include "nc_interface/nc_number.hpp"
 #include "nc_interface/recorder.hpp"
+#include "runtime/replay.hpp"
 #include "scenarios/load_cases.hpp"
-#include "scenarios/replay.hpp"
-#include "scenarios/replay_nc.hpp"
 #include "storage/history_reader.hpp"
 
 namespace fs = std::filesystem;
 namespace sc = alc::scenarios;
+namespace rt = alc::runtime;
 namespace nc = alc::nc;
 namespace kinematics = alc::kinematics;
 using alc::nc::test::read_text;
@@ -131,31 +132,35 @@ double var_value(const std::string& var, int parameter) {
   return 0.0;
 }
 
-// Forwards every callback to the NC observer and keeps, for each axis_offsets command it emits,
+// Runs after the NC observer in every cycle and keeps, for each axis_offsets command it emitted,
 // the prediction of the controller cycle that emitted it.
-class PredictionTap : public sc::ReplayObserver {
+class PredictionTap : public rt::Observer {
  public:
-  explicit PredictionTap(sc::NcCommandObserver& nc) : nc_(nc) {}
-  void on_row_done(const sc::ReplaySession& session) override { nc_.on_row_done(session); }
-  void on_sample(std::size_t row, double time_s, const Eigen::VectorXd& inputs, const alc::ControllerOutput& out) override {
-    const std::size_t before = nc_.commands().size();
-    nc_.on_sample(row, time_s, inputs, out);
-    keep(before, out);
-  }
-  void on_probe(std::size_t row, const alc::ProbeMeasurement& probe, const alc::ControllerOutput& out) override {
-    const std::size_t before = nc_.commands().size();
-    nc_.on_probe(row, probe, out);
-    keep(before, out);
+  const rt::NcCommandObserver* nc = nullptr;
+  void on_cycle(const rt::Cycle& cycle) override {
+    for (std::size_t i = seen_; i < nc->commands().size(); ++i)
+      if (const auto* o = std::get_if<nc::AxisOffsets>(&nc->commands()[i]))
+        emitted.emplace_back(*o, cycle.out().prediction);
+    seen_ = nc->commands().size();
   }
   std::vector<std::pair<nc::AxisOffsets, Eigen::VectorXd>> emitted;
 
  private:
-  void keep(std::size_t before, const alc::ControllerOutput& out) {
-    for (std::size_t i = before; i < nc_.commands().size(); ++i)
-      if (const auto* o = std::get_if<nc::AxisOffsets>(&nc_.commands()[i])) emitted.emplace_back(*o, out.prediction);
-  }
-  sc::NcCommandObserver& nc_;
+  std::size_t seen_ = 0;
 };
+
+// Replays `scenario` with NC output for `chain` (files into a fresh directory); `tap` sees every cycle.
+std::unique_ptr<rt::Replay> replay_with_nc(const sc::Scenario& scenario, const kinematics::MachineChain& chain,
+                                           PredictionTap* tap, const std::string& tag) {
+  rt::ReplayOptions o;
+  o.machine.chain = chain;
+  o.nc = rt::NcOutputSetup{alc::nc::test::fresh_dir("replay_nc_" + tag), nc::Dialect::LinuxCNC};
+  if (tap) o.observers.push_back(tap);
+  auto replay = std::make_unique<rt::Replay>(scenario, o);
+  if (tap) tap->nc = replay->nc();
+  replay->run();
+  return replay;
+}
 
 struct EmittedCheck {
   double largest = 0.0;           // [µm/m] largest non_compensable_um_per_m of the commands
@@ -166,7 +171,7 @@ struct EmittedCheck {
 // B-C) and not the other; it carries the non-compensable part of compensate() for the prediction of
 // the cycle that emitted it; and that is |`uncancelled`| (the error no axis of the chain cancels) up to
 // the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
-EmittedCheck check_emitted(const PredictionTap& tap, const sc::Scenario& scenario, const sc::NcObserverOptions& options,
+EmittedCheck check_emitted(const PredictionTap& tap, const sc::Scenario& scenario, const rt::NcObserverOptions& options,
                            double kinematics::LocationErrors::*uncancelled) {
   REQUIRE(tap.emitted.size() > 10);
   const bool a_tilt = options.chain.tilt.name == 'A';
@@ -179,7 +184,7 @@ EmittedCheck check_emitted(const PredictionTap& tap, const sc::Scenario& scenari
     r.largest_tilt_deg = std::max(r.largest_tilt_deg, std::abs(*tilt));
     REQUIRE(command.non_compensable_um_per_m.has_value());
     const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
-    const kinematics::Compensation c = kinematics::compensate(options.chain, options.pose, errors);
+    const kinematics::Compensation c = kinematics::compensate(options.chain, {}, errors);
     REQUIRE(c.converged);
     CHECK(*command.non_compensable_um_per_m == c.non_compensable_um_per_m);
     CHECK(std::abs(*command.non_compensable_um_per_m - std::abs(errors.*uncancelled)) < 1e-3);
@@ -193,10 +198,10 @@ EmittedCheck check_emitted(const PredictionTap& tap, const sc::Scenario& scenari
 TEST_CASE("replay NC output: each offset command records the non-compensable part of its prediction",
           "[replay][nc]") {
   const sc::Scenario scenario = sc::simulate_case("A").scenario;
-  const sc::NcObserverOptions options;  // A-C table: what no axis cancels is the tilt E_B0C
-  sc::NcCommandObserver observer(scenario.output_names, options);
-  PredictionTap tap(observer);
-  sc::replay(scenario, alc::AlcParameters{}, &tap);
+  const rt::NcObserverOptions options;  // A-C table: what no axis cancels is the tilt E_B0C
+  PredictionTap tap;
+  const auto replay = replay_with_nc(scenario, options.chain, &tap, "non_compensable");
+  const rt::NcCommandObserver& observer = *replay->nc();
   // For an A-C table it is |E_B0C| up to the O(eps^2) of the exact chain (eps ~ 1e-5 rad here).
   const double largest = check_emitted(tap, scenario, options, &kinematics::LocationErrors::b0c_um_per_m).largest;
   CHECK(largest > 0.1);  // the case does predict a tilt that the offsets leave
@@ -222,9 +227,9 @@ TEST_CASE("replay NC output: every load case's linuxcnc program passes rs274 wit
   for (const char* name : {"A", "B", "C", "D"}) {
     INFO("load case " << name);
     const sc::Scenario scenario = sc::simulate_case(name).scenario;
-    sc::NcCommandObserver observer(scenario.output_names, sc::NcObserverOptions{});
+    const auto replay = replay_with_nc(scenario, rt::NcObserverOptions{}.chain, nullptr, name);
+    const rt::NcCommandObserver& observer = *replay->nc();
     REQUIRE(observer.maps_any_error());
-    sc::replay(scenario, alc::AlcParameters{}, &observer);
 
     std::size_t offsets = 0, intervals = 0;
     for (const nc::NcCommand& c : observer.commands())
@@ -297,11 +302,11 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
 TEST_CASE("replay NC output: a B-C machine gets b_deg, within the limits, and its non-compensable E_A0C is reported",
           "[replay][nc]") {
   const sc::Scenario scenario = sc::simulate_case("A").scenario;
-  sc::NcObserverOptions options;
+  rt::NcObserverOptions options;
   options.chain = kinematics::MachineChain::bc_trunnion();  // B about y: what no axis cancels is E_A0C
-  sc::NcCommandObserver observer(scenario.output_names, options);
-  PredictionTap tap(observer);
-  sc::replay(scenario, alc::AlcParameters{}, &tap);
+  PredictionTap tap;
+  const auto replay = replay_with_nc(scenario, options.chain, &tap, "bc");
+  const rt::NcCommandObserver& observer = *replay->nc();
   // b_deg, never a_deg; and what is left is |E_A0C| up to O(eps^2), not the A-C table's |E_B0C|.
   const EmittedCheck c = check_emitted(tap, scenario, options, &kinematics::LocationErrors::a0c_um_per_m);
   CHECK(c.largest > 0.1);

@@ -2,12 +2,21 @@
 // (CP 6.5 h, 5 min, 2 h, NG 10 min x 12, ACL 5 µm / 15 µm/m), default seeds.
 #include <catch2/catch.hpp>
 
+#include <fstream>
+#include <sstream>
+
+#include "../cli_support.hpp"
+#include "runtime/replay.hpp"
+#include "runtime/run_state.hpp"
+#include "runtime_test_support.hpp"
 #include "scenarios/load_cases.hpp"
-#include "scenarios/replay.hpp"
-#include "scenarios/replay_history.hpp"
+#include "storage/history_reader.hpp"
 
 using namespace alc;
-using namespace alc::scenarios;
+using namespace alc::runtime;
+using namespace alc::runtime::test;
+using alc::scenarios::load_cases;
+using alc::scenarios::simulate_case;
 
 TEST_CASE("load cases A-D: linear P99 below 5 µm, Pd at least 95.5 %, and the ALC beats the static baseline") {
   constexpr double kP99LimitUm = 5.0;       // [µm] Eq. 8 of seed 004
@@ -64,17 +73,25 @@ TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s re
   CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, /*baseline=*/true));
 }
 
-TEST_CASE("load case A: the replay state survives encoding at many points and continues bit for bit") {
+TEST_CASE("load case A: a run stopped at many points and resumed from its history continues bit for bit") {
   const auto simulated = simulate_case("A");
-  ReplaySession uninterrupted(simulated.scenario, AlcParameters{});
+  Replay uninterrupted(simulated.scenario, in_memory(AlcParameters{}));
   uninterrupted.run();
   const ReplayReport whole = uninterrupted.report();
   const ControllerState& end = uninterrupted.controller().state();
   for (double stop_h : {0.0, 6.0, 6.5, 7.0, 30.0, 100.25, 191.0}) {
-    ReplaySession first(simulated.scenario, AlcParameters{});
-    first.run(stop_h * 3600.0);
-    const std::string bytes = encode_replay_state(first.state());
-    ReplaySession second(simulated.scenario, AlcParameters{}, decode_replay_state(bytes));
+    const auto db = temp_db("cases-A");
+    ReplayOptions o = in_memory(AlcParameters{});
+    o.source = "case A";
+    o.db = db;
+    o.stop_time_s = stop_h * 3600.0;
+    {
+      Replay first(simulated.scenario, o);
+      first.run();
+    }
+    o.resume = true;
+    o.stop_time_s = kInf;
+    Replay second(simulated.scenario, o);
     second.run();
     const ReplayReport r = second.report();
     INFO("stopped at " << stop_h << " h");
@@ -97,12 +114,49 @@ TEST_CASE("load case A: the replay state survives encoding at many points and co
   }
 }
 
-TEST_CASE("replay state: a truncated or foreign payload is refused") {
+TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refused") {
   const auto simulated = simulate_case("A");
-  ReplaySession session(simulated.scenario, AlcParameters{});
-  session.run(10 * 3600.0);
-  const std::string bytes = encode_replay_state(session.state());
-  CHECK_THROWS_WITH(decode_replay_state(bytes.substr(0, bytes.size() / 2)), "replay state: payload is truncated");
-  CHECK_THROWS_WITH(decode_replay_state(bytes + "x"), "replay state: trailing bytes after the payload");
-  CHECK_THROWS_AS(decode_replay_state(std::string(64, '\0')), std::runtime_error);
+  Replay session(simulated.scenario, in_memory(AlcParameters{}));
+  session.run_until(10 * 3600.0);
+  const std::string bytes = session.encode_state();
+  const RunState decoded = decode_run_state(bytes);
+  CHECK(decoded.controller.samples == 600);
+  CHECK(decoded.controller.probes.size() == session.controller().state().probes.size());
+  CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
+  CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
+  std::string flipped = bytes;
+  flipped[flipped.size() / 2] = static_cast<char>(flipped[flipped.size() / 2] ^ 0x10);
+  CHECK_THROWS_WITH(decode_run_state(flipped), Catch::Matchers::Contains("damaged"));
+  CHECK_THROWS_AS(decode_run_state(std::string(64, '\0')), std::runtime_error);
+  CHECK_THROWS_AS(decode_run_state(""), std::runtime_error);
+}
+
+TEST_CASE("run state: a snapshot holds no input samples, so its size does not grow with the run") {
+  const auto simulated = simulate_case("A");
+  const auto db = temp_db("snapshot-size");
+  ReplayOptions o = in_memory(AlcParameters{});
+  o.source = "case A";
+  o.db = db;
+  Replay replay(simulated.scenario, o);
+  replay.run();
+  const auto snapshots = storage::HistoryReader(db).snapshots(*replay.run_id());
+  REQUIRE(snapshots.size() >= 9);  // start, every 24 h of 192 h, end
+  // From day 2 on the payload holds the Post-CP probes and the model: a few kB, not the 11521 x 5
+  // inputs (460 kB) that a snapshot with the history would carry at the end.
+  for (const auto& s : snapshots) {
+    INFO("snapshot at " << s.time_s << " s: " << s.payload.size() << " bytes");
+    CHECK(s.payload.size() < 40000);
+  }
+}
+
+TEST_CASE("alc replay --case all --json is the same, byte for byte, as the reference output") {
+  // tests/runtime/reference/replay_all.json was printed by the replay before the runtime driver was
+  // introduced; a change of any decision or indicator of A-D shows here.
+  std::ifstream in(std::string(ALC_SOURCE_DIR) + "/tests/runtime/reference/replay_all.json", std::ios::binary);
+  REQUIRE(in);
+  std::stringstream expected;
+  expected << in.rdbuf();
+  const alc_test::CliRun r = alc_test::run_alc("replay --case all --json", "replay_all_json");
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out == expected.str());
 }

@@ -1,0 +1,80 @@
+// probing/schedule: seed 004's phase schedule as a policy, breach confirmation, Pd of Eq. 7.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "probing/schedule.hpp"
+
+using namespace alc;
+using namespace alc::probing;
+using Catch::Matchers::WithinAbs;
+
+TEST_CASE("schedule: the paper's intervals per phase and the next due time") {
+  PaperScheduleOptions o;
+  o.cp_interval_s = 300.0;
+  o.post_cp_interval_s = 7200.0;
+  o.ng_interval_s = 600.0;
+  const PaperSchedule s(o);
+  CHECK(s.name() == "paper");
+  CHECK(s.interval(Phase::Calibration) == 300.0);
+  CHECK(s.interval(Phase::PostCalibration) == 7200.0);
+  CHECK(s.interval(Phase::NoGood) == 600.0);
+  ScheduleContext c;
+  c.now_s = 1000.0;
+  c.phase = Phase::NoGood;
+  CHECK(s.next_due(c) == 1600.0);
+  o.post_cp_interval_s = kNever;
+  c.phase = Phase::PostCalibration;
+  CHECK(std::isinf(PaperSchedule(o).next_due(c)));  // --interval inf: no probes after CP
+}
+
+TEST_CASE("schedule: NG burst, counting and the unbounded count") {
+  PaperScheduleOptions o;
+  o.ng_measurements = 3;
+  ScheduleContext c;
+  c.phase = Phase::NoGood;
+  const PaperSchedule three(o);
+  CHECK(three.ng_burst());
+  for (int k = 1; k <= 2; ++k) {
+    c.ng_probes = k;
+    CHECK(three.after_ng_probe(c, true) == NgStep::Continue);
+  }
+  c.ng_probes = 3;
+  CHECK(three.after_ng_probe(c, false) == NgStep::UpdateAndLeave);
+  o.ng_measurements = kNever;
+  const PaperSchedule unbounded(o);
+  CHECK(unbounded.after_ng_probe(c, true) == NgStep::UpdateAndContinue);
+  CHECK(unbounded.after_ng_probe(c, false) == NgStep::Leave);
+  o.ng_measurements = 0;
+  CHECK_FALSE(PaperSchedule(o).ng_burst());
+  o.ng_measurements = 12;
+  o.ng_interval_s = kNever;
+  CHECK_FALSE(PaperSchedule(o).ng_burst());
+}
+
+TEST_CASE("schedule: a breach is confirmed by a residual off the same way by more than half the ACL") {
+  const PaperSchedule s{PaperScheduleOptions{}};
+  const double nan = std::nan("");
+  Eigen::VectorXd breach(3), acl(3), r(3);
+  breach << 6.0, nan, -20.0;
+  acl << 5.0, 5.0, 15.0;
+  r << 2.6, 9.0, 0.0;  // 2.6 > 2.5 the same way
+  CHECK(s.confirmed(breach, r, acl));
+  r << 2.4, 9.0, 0.0;  // below half; output 1 did not breach before
+  CHECK_FALSE(s.confirmed(breach, r, acl));
+  r << -6.0, nan, -7.6;  // output 0 flipped sign; output 2 still off the same way beyond 7.5
+  CHECK(s.confirmed(breach, r, acl));
+  r << nan, nan, nan;  // not measured
+  CHECK_FALSE(s.confirmed(breach, r, acl));
+}
+
+TEST_CASE("accounting: productivity Pd of Eq. 7 with T_M = 95 s") {
+  constexpr double kTol = 1e-12;
+  // 100 probe cycles in 8 days: (1 - 100 * 95 / 691200) * 100
+  REQUIRE_THAT(productivity_percent(100, 8 * 86400.0), WithinAbs(100.0 * (1.0 - 9500.0 / 691200.0), kTol));
+  REQUIRE_THAT(productivity_percent(0, 3600.0), WithinAbs(100.0, kTol));
+  // one probe every 5 min of probing time alone: 1 - 95/300
+  REQUIRE_THAT(productivity_percent(12, 3600.0), WithinAbs(100.0 * (1.0 - 95.0 / 300.0), kTol));
+  CHECK(std::isnan(productivity_percent(1, 0.0)));
+  CHECK(to_string(Phase::NoGood) == "NG");
+}
