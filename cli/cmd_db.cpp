@@ -1,15 +1,13 @@
 // alc db: inspect, check, export and benchmark a history database (storage/, docs/storage.md).
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 
 #include "commands.hpp"
+#include "common/atomic_file.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/history_tools.hpp"
 #include "storage/schema.hpp"
@@ -101,21 +99,7 @@ void run_export(const std::string& file, const std::string& table, const std::st
   const std::filesystem::path target(out);
   refuse_export_over_database(file, target);
   // Written beside the target and renamed, so a reader never sees half a file.
-  std::filesystem::path temporary = target;
-  temporary += ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
-    if (!stream) throw std::runtime_error("cannot write '" + temporary.string() + "'");
-    try {
-      storage::export_table_csv(file, table, stream);
-      stream.close();
-      if (!stream) throw std::runtime_error("writing '" + temporary.string() + "' failed");
-    } catch (...) {
-      std::filesystem::remove(temporary);
-      throw;
-    }
-  }
-  std::filesystem::rename(temporary, target);
+  io::write_file_atomically(target, [&](std::ostream& stream) { storage::export_table_csv(file, table, stream); });
 }
 
 void run_bench(const storage::BenchOptions& options, const std::string& dir) {

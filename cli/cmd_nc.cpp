@@ -79,7 +79,7 @@ void run_nc(const NcArgs& args) {
   // Safety first: nothing is written when any command is refused. max_step is judged from the
   // offsets in force (--in-force), else from zero offsets, per register of the dialect (heidenhain:
   // one datum shift for every work offset).
-  nc::CommandRecorder recorder(config.limits, nc::offset_registers(*dialect));
+  nc::CommandRecorder recorder = nc::recorder_for(*dialect, config.limits);
   if (!args.in_force.empty()) {
     for (const nc::AxisOffsets& o : read_in_force(args.in_force)) {
       try {

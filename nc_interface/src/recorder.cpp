@@ -1,13 +1,12 @@
 #include "nc_interface/recorder.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
-#include <unistd.h>
 
+#include "common/atomic_file.hpp"
 #include "nc_interface/jsonl.hpp"
 
 namespace alc::nc {
@@ -40,6 +39,10 @@ void CommandRecorder::set_in_force(const AxisOffsets& offsets) {
   gate_.set_in_force(offsets);
 }
 
+CommandRecorder recorder_for(Dialect dialect, const SafetyLimits& limits) {
+  return CommandRecorder(limits, offset_registers(dialect));
+}
+
 std::string decision_json_line(const SafetyDecision& d) {
   nlohmann::ordered_json j;
   j["verdict"] = std::string(verdict_name(d.verdict));
@@ -49,34 +52,11 @@ std::string decision_json_line(const SafetyDecision& d) {
   return j.dump();
 }
 
-void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
-  static std::atomic<unsigned> counter{0};
-  std::filesystem::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(tmp, ignored);
-      throw std::runtime_error("cannot write " + tmp.string());
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-    throw std::runtime_error("cannot rename " + tmp.string() + " to " + path.string() + ": " + ec.message());
-  }
-}
-
 NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
                                        const std::vector<NcCommand>& commands, const DialectOptions& options,
                                        const SafetyLimits& limits) {
   if (const std::string e = validate(options); !e.empty()) throw std::invalid_argument("NC options: " + e);
-  CommandRecorder recorder(limits, offset_registers(dialect));
+  CommandRecorder recorder = recorder_for(dialect, limits);
   NcOutputSummary summary;
   std::ostringstream safety;
   for (const NcCommand& c : commands) {
@@ -98,9 +78,9 @@ NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect
   summary.program_file = dir / ("program" + std::string(program_extension(dialect)));
   summary.safety_file = dir / "safety.jsonl";
   const std::string program = write_program(dialect, recorder.to_send(), options);
-  write_file_atomically(summary.commands_file, jsonl.str());
-  write_file_atomically(summary.program_file, program);
-  write_file_atomically(summary.safety_file, safety.str());
+  io::write_file_atomically(summary.commands_file, jsonl.str());
+  io::write_file_atomically(summary.program_file, program);
+  io::write_file_atomically(summary.safety_file, safety.str());
   return summary;
 }
 

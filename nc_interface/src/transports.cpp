@@ -16,6 +16,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "common/atomic_file.hpp"
 #include "nc_interface/nc_number.hpp"
 #include "nc_interface/recorder.hpp"
 
@@ -65,7 +66,7 @@ void SpoolSink::deliver(const NcCommand& command) {
   std::snprintf(name, sizeof name, "alc_%06ld", next);
   const std::filesystem::path path = dir_ / (name + std::string(program_extension(dialect_)));
   try {
-    write_file_atomically(path, program);
+    io::write_file_atomically(path, program);
   } catch (const std::exception& e) {
     throw SinkError("spool: " + std::string(e.what()));
   }

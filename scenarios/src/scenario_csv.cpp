@@ -11,6 +11,8 @@
 #include <unordered_set>
 
 #include "alc/error_kind.hpp"
+#include "common/atomic_file.hpp"
+#include "common/number_text.hpp"
 
 namespace alc::scenarios {
 
@@ -246,10 +248,7 @@ Scenario read_scenario_csv(const std::filesystem::path& path) {
 }
 
 std::string format_number(double value) {
-  if (value == 0.0) return "0";  // also turns -0 into 0
-  char buf[64];
-  const auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, value);
-  return std::string(buf, ptr);
+  return value == 0.0 ? "0" : common::shortest_text(value);  // -0 is written as 0
 }
 
 namespace {
@@ -346,29 +345,7 @@ void write_scenario_csv(std::ostream& out, const Scenario& s) {
 
 void write_scenario_csv(const std::filesystem::path& path, const Scenario& s) {
   check_writable(s);  // before any file is touched
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error(tmp.string() + ": cannot open file for writing");
-  // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.
-  const auto discard = [&tmp] {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-  };
-  try {
-    write_rows(out, s);
-    out.close();
-    if (!out) throw std::runtime_error(tmp.string() + ": write failed (disk full?)");
-  } catch (...) {
-    out.close();
-    discard();
-    throw;
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    discard();
-    throw std::runtime_error(path.string() + ": cannot rename temporary file into place: " + ec.message());
-  }
+  io::write_file_atomically(path, [&s](std::ostream& out) { write_rows(out, s); });
 }
 
 }  // namespace alc::scenarios

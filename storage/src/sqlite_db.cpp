@@ -4,14 +4,14 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 
+#include "common/byte_codec.hpp"
+#include "common/number_text.hpp"
 #include "storage/schema.hpp"
 
 namespace alc::storage::detail {
@@ -475,32 +475,23 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
 }
 
 // ---------------------------------------------------------------------------------------------
+// Blobs of f64 values: the bytes of common::ByteWriter::f64, one after the other, no count.
 std::string encode_f64(const std::vector<double>& values) {
-  std::string bytes(values.size() * sizeof(double), '\0');
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    auto bits = std::bit_cast<std::uint64_t>(values[i]);
-    for (int b = 0; b < 8; ++b) bytes[i * 8 + static_cast<std::size_t>(b)] = static_cast<char>((bits >> (8 * b)) & 0xff);
-  }
-  return bytes;
+  common::ByteWriter bytes;
+  for (const double v : values) bytes.f64(v);
+  return bytes.take();
 }
 
+// Trailing bytes short of a whole value are ignored.
 std::vector<double> decode_f64(std::string_view bytes) {
-  std::vector<double> values(bytes.size() / 8);
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    std::uint64_t bits = 0;
-    for (int b = 0; b < 8; ++b)
-      bits |= std::uint64_t{static_cast<unsigned char>(bytes[i * 8 + static_cast<std::size_t>(b)])} << (8 * b);
-    values[i] = std::bit_cast<double>(bits);
-  }
+  common::ByteReader reader(bytes.substr(0, bytes.size() / 8 * 8), "f64 blob");
+  std::vector<double> values;
+  values.reserve(bytes.size() / 8);
+  while (!reader.done()) values.push_back(reader.f64());
   return values;
 }
 
-std::string format_double(double value) {
-  if (std::isnan(value)) return {};
-  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
-  char text[32];
-  const auto result = std::to_chars(text, text + sizeof text, value);
-  return std::string(text, result.ptr);
-}
+// NaN is an empty cell (NULL-like), infinities are "inf" / "-inf", -0 stays "-0".
+std::string format_double(double value) { return std::isnan(value) ? std::string() : common::shortest_text(value); }
 
 }  // namespace alc::storage::detail

@@ -365,6 +365,27 @@ TEST_CASE("safety: one offset register (heidenhain) judges every work offset aga
   CHECK(in_force.submit(offsets(0.055, 0, 0, 0, 0, 3)).verdict == SafetyVerdict::Accepted);
 }
 
+TEST_CASE("recorder_for: the recorder's gate keeps the registers of the dialect", "[nc][safety]") {
+  // The same alternating G54 / G55 commands: refused on heidenhain's one register, accepted on the
+  // per-work-offset registers of the other dialects.
+  const std::vector<NcCommand> alternating{offsets(0.009, 0, 0, 0, 0, 1), offsets(-0.009, 0, 0, 0, 0, 2)};
+  for (const Dialect dialect : {Dialect::LinuxCNC, Dialect::Fanuc, Dialect::Sinumerik, Dialect::Heidenhain}) {
+    INFO(dialect_name(dialect));
+    CommandRecorder recorder = recorder_for(dialect);
+    CHECK(recorder.record(alternating[0]).verdict == SafetyVerdict::Accepted);
+    const SafetyDecision d = recorder.record(alternating[1]);
+    CHECK(d.verdict == (dialect == Dialect::Heidenhain ? SafetyVerdict::Refused : SafetyVerdict::Accepted));
+  }
+  SafetyLimits split;
+  split.on_step_violation = StepAction::Split;
+  CommandRecorder recorder = recorder_for(Dialect::Heidenhain, split);
+  recorder.record(alternating[0]);
+  CHECK(recorder.record(alternating[1]).verdict == SafetyVerdict::Split);  // the limits are the given ones
+  SafetyLimits bad;
+  bad.max_step.x_mm = -1.0;
+  CHECK_THROWS_AS(recorder_for(Dialect::Fanuc, bad), std::invalid_argument);
+}
+
 TEST_CASE("safety: the heidenhain datum shift never moves by more than max_step, whatever the work offsets",
           "[nc][safety]") {
   // A seeded random walk over all six work offsets, each command within max_step of the last command

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -50,6 +51,13 @@ std::string file_text(const std::filesystem::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// The names in `dir`: what a write left behind.
+std::set<std::string> entries_of(const std::filesystem::path& dir) {
+  std::set<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) names.insert(entry.path().filename().string());
+  return names;
 }
 
 // A small scenario that the writer accepts: 3 rows, inputs T and n, outputs E_X and E_A.
@@ -155,7 +163,7 @@ TEST_CASE("scenario CSV: write then read gives the same numbers, also through a 
   const auto path = dir / "roundtrip.csv";
   alc::scenarios::write_scenario_csv(path, s);
   const Scenario back = alc::scenarios::read_scenario_csv(path);
-  CHECK_FALSE(std::filesystem::exists(dir / "roundtrip.csv.tmp"));
+  CHECK(entries_of(dir) == std::set<std::string>{"roundtrip.csv"});  // no temporary file left
   std::filesystem::remove_all(dir);
   CHECK(back.time_s == s.time_s);
   CHECK(back.inputs == s.inputs);
@@ -396,7 +404,7 @@ TEST_CASE("scenario CSV: a failed write leaves an existing file untouched") {
   std::string text;
   std::getline(in, text);
   CHECK(text == "original");
-  CHECK_FALSE(std::filesystem::exists(dir / "keep.csv.tmp"));
+  CHECK(entries_of(dir) == std::set<std::string>{"keep.csv"});  // no temporary file made
   std::filesystem::remove_all(dir);
 }
 
@@ -497,21 +505,24 @@ TEST_CASE("scenario CSV: a refused or failed file write leaves no temporary file
   }
   CHECK(file_text(path) == "original\n");
   CHECK_FALSE(std::filesystem::exists(tmp));
-  // A stale temporary file of an earlier crash is not taken for ours: a refused write leaves it be.
+  // A stale temporary file of an earlier crash (or of another writer) is not taken for ours: neither
+  // a refused write nor a good one touches it; each write uses a temporary file of its own.
   { std::ofstream(tmp, std::ios::binary) << "stale\n"; }
   CHECK_THROWS_AS(alc::scenarios::write_scenario_csv(path, bad), std::invalid_argument);
   CHECK(file_text(tmp) == "stale\n");
-  // A good write replaces both.
+  // A good write replaces the target and leaves nothing of its own beside it.
   alc::scenarios::write_scenario_csv(path, writable());
   CHECK(file_text(path) == "time_s,T,n,E_X,E_A\n0,20,0,1.5,\n60,20.5,100,,-2\n120,21,0,3,4\n");
-  CHECK_FALSE(std::filesystem::exists(tmp));
+  CHECK(file_text(tmp) == "stale\n");
+  CHECK(entries_of(dir) == std::set<std::string>{"keep.csv", "keep.csv.tmp"});
   // The rename fails (the target is a directory that is not empty): the temporary file goes, the
   // directory stays.
   const auto target_dir = dir / "taken.csv";
   std::filesystem::create_directories(target_dir);
   { std::ofstream(target_dir / "inside", std::ios::binary) << "x"; }
-  CHECK_THROWS_AS(alc::scenarios::write_scenario_csv(target_dir, writable()), std::runtime_error);
-  CHECK_FALSE(std::filesystem::exists(dir / "taken.csv.tmp"));
+  CHECK_THROWS_WITH(alc::scenarios::write_scenario_csv(target_dir, writable()),
+                    Catch::Matchers::Contains(target_dir.string()));
+  CHECK(entries_of(dir) == std::set<std::string>{"keep.csv", "keep.csv.tmp", "taken.csv"});
   CHECK(file_text(target_dir / "inside") == "x");
   std::filesystem::remove_all(dir);
 }

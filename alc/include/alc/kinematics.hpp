@@ -46,7 +46,7 @@ struct MachineChain {
 // Empty if the chain is usable, else which constraint is broken (names the field and the value).
 std::string validate(const MachineChain& chain);
 
-// The seven thermal location errors of the C axis (DESIGN.md: ISO 230-7 names).
+// The seven thermal location errors of the C axis (ISO 230-7 names; docs/design.md, "The seven errors").
 struct LocationErrors {
   double x0c_um = 0.0;       // E_X0C [µm] axis position in x
   double y0c_um = 0.0;       // E_Y0C [µm] axis position in y

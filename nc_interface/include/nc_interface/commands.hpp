@@ -1,6 +1,6 @@
 #pragma once
 // NC commands as values: what the controller decided, before any dialect turns it into text
-// (the idea of LinuxCNC's canonical machining commands, STYLE.md).
+// (the idea of LinuxCNC's canonical machining commands, docs/design.md "Module map").
 #include <optional>
 #include <string>
 #include <variant>

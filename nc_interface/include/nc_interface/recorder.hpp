@@ -37,6 +37,12 @@ class CommandRecorder {
   std::vector<SafetyDecision> decisions_;
 };
 
+// The recorder for commands that will be written in `dialect`: its gate keeps the offset registers
+// of the dialect (offset_registers(dialect): heidenhain's one datum shift, one register per work
+// offset elsewhere), so max_step is judged against what that NC holds. Zero offsets in force until
+// set_in_force. Throws std::invalid_argument for invalid limits.
+CommandRecorder recorder_for(Dialect dialect, const SafetyLimits& limits = {});
+
 struct NcOutputSummary {
   std::filesystem::path commands_file;   // DIR/commands.jsonl: the commands as sent, one JSON per line
   std::filesystem::path program_file;    // DIR/program.<ext>: all of them as one NC program
@@ -49,16 +55,12 @@ struct NcOutputSummary {
   double max_non_compensable_um_per_m = 0.0;
 };
 
-// Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each to a temporary name then
-// renamed. The gate judges max_step per offset_registers(dialect). Throws std::invalid_argument for
-// bad options, std::runtime_error when a file cannot be written (the message names the path).
+// Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each atomically
+// (io::write_file_atomically). The gate is recorder_for(dialect, limits). Throws
+// std::invalid_argument for bad options, std::runtime_error when a file cannot be written (the message names the path).
 NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
                                        const std::vector<NcCommand>& commands, const DialectOptions& options = {},
                                        const SafetyLimits& limits = {});
-
-// Writes `text` to `path` through a temporary file in the same directory and a rename, so a reader
-// never sees half a file. Throws std::runtime_error naming the path.
-void write_file_atomically(const std::filesystem::path& path, const std::string& text);
 
 // One line of JSON describing a decision: {"verdict":…,"message":…,"requested":{…}}.
 std::string decision_json_line(const SafetyDecision& decision);

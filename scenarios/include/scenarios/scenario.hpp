@@ -1,6 +1,6 @@
 #pragma once
 // A scenario: time series of model inputs and (sparse) measured thermal errors.
-// This is the in-memory form of the scenario CSV contract (DESIGN.md, "Data contracts").
+// This is the in-memory form of the scenario CSV contract (docs/design.md, "Scenario CSV").
 #include <Eigen/Core>
 #include <string>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// The one reader and the one writer of the scenario CSV contract (DESIGN.md):
+// The one reader and the one writer of the scenario CSV contract (docs/design.md, "Scenario CSV"):
 // UTF-8, comma-separated, one header line, required `time_s` [s] strictly increasing,
 // `E_…` columns are measured errors (empty cell = no measurement), every other column an input.
 #include <filesystem>
@@ -40,11 +40,13 @@ Scenario read_scenario_csv(const std::filesystem::path& path);
 // increasing. No input column and no rows are allowed (a result file such as `alc replay
 // --residuals` writes, which the reader would not take as a scenario).
 void write_scenario_csv(std::ostream& out, const Scenario& scenario);
-// Writes to a temporary file beside `path` (PATH.tmp) and renames it, so a reader never sees half
-// a file. On any failure the temporary file is removed and an existing `path` is left untouched.
+// Writes atomically (io::write_file_atomically: a temporary file of its own beside `path`, then a
+// rename), so a reader never sees half a file. On any failure the temporary file is removed and an
+// existing `path` is left untouched (std::runtime_error naming `path`).
 void write_scenario_csv(const std::filesystem::path& path, const Scenario& scenario);
 
-// Shortest round-trip text of a finite double ("0.1", "-12.5", "1e-07").
+// Shortest round-trip text of a finite double ("0.1", "-12.5", "1e-07"; common::shortest_text),
+// except that -0 is written as "0".
 std::string format_number(double value);
 
 }  // namespace alc::scenarios

@@ -1,7 +1,7 @@
 #pragma once
 // The thermal twin: a virtual 5-axis machine with a table-side C axis (rotary table in a tilting
 // cradle), made of a lumped thermal network (scenarios/thermal_network.hpp) and an output map
-// from node temperatures to the seven location errors of the C axis (DESIGN.md).
+// from node temperatures to the seven location errors of the C axis (docs/design.md, "The seven errors").
 //
 // Shape of GTSAM's Scenario / ScenarioRunner: the twin is the exact, noiseless physics
 // (node temperatures and true errors at every sample); the load cases (load_cases.hpp) drive it

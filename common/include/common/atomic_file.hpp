@@ -1,0 +1,21 @@
+#pragma once
+// The one way the project replaces a file: a reader (or a crash) never sees half of it.
+#include <filesystem>
+#include <functional>
+#include <ostream>
+#include <string_view>
+
+namespace alc::io {
+
+// Writes `text` to `path` atomically: into a new temporary file beside `path` (same directory,
+// a name of its own: PATH.tmp.<pid>.<n>, created exclusively, so neither a stale file of an earlier
+// crash nor another writer is touched), flushed and fsync'ed, then renamed over `path`. On any
+// failure the temporary file is removed, `path` is left as it was, and std::runtime_error says
+// "cannot write 'PATH': " and the cause (no such directory, the target is a directory, disk full).
+void write_file_atomically(const std::filesystem::path& path, std::string_view text);
+
+// The same for a text produced as a stream: `write` fills the stream. An exception from `write`
+// propagates as it is (after the temporary file is removed); a failed stream is a write error.
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
+
+}  // namespace alc::io

@@ -1,0 +1,129 @@
+#include "common/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+#include <streambuf>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace alc::io {
+namespace {
+
+// Built by appending: GCC 12 warns (-Wrestrict, a false positive) about "'" + std::string.
+std::string quoted(const std::filesystem::path& p) {
+  std::string q(1, '\'');
+  q.append(p.string()).push_back('\'');
+  return q;
+}
+
+// A buffered output stream on a file descriptor that remembers the errno of a failed write (an
+// std::ofstream says only that it failed, and cannot fsync).
+class FdBuffer : public std::streambuf {
+ public:
+  explicit FdBuffer(int fd) : fd_(fd), buffer_(1 << 16) { setp(buffer_.data(), buffer_.data() + buffer_.size()); }
+  int error() const { return error_; }
+
+ protected:
+  int_type overflow(int_type ch) override {
+    if (!drain()) return traits_type::eof();
+    if (!traits_type::eq_int_type(ch, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(ch);
+      pbump(1);
+    }
+    return traits_type::not_eof(ch);
+  }
+  int sync() override { return drain() ? 0 : -1; }
+
+ private:
+  bool drain() {
+    const char* data = pbase();
+    std::size_t left = static_cast<std::size_t>(pptr() - pbase());
+    while (left > 0) {
+      const ssize_t n = ::write(fd_, data, left);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        error_ = n < 0 ? errno : EIO;
+        return false;
+      }
+      data += n;
+      left -= static_cast<std::size_t>(n);
+    }
+    setp(buffer_.data(), buffer_.data() + buffer_.size());
+    return true;
+  }
+
+  int fd_;
+  std::vector<char> buffer_;
+  int error_ = 0;
+};
+
+// Creates PATH.tmp.<pid>.<n> exclusively (a name nobody else holds); returns its descriptor.
+int create_temporary(const std::filesystem::path& path, std::filesystem::path& temporary) {
+  static std::atomic<unsigned> counter{0};
+  for (int attempt = 0;; ++attempt) {
+    temporary = path;
+    temporary += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) return fd;
+    if (errno != EEXIST || attempt >= 100)
+      throw std::runtime_error("cannot write " + quoted(path) + ": cannot create a temporary file beside it (" +
+                               quoted(temporary) + "): " + std::strerror(errno));
+  }
+}
+
+// Makes the rename itself durable (best effort: some file systems cannot sync a directory).
+void sync_directory(const std::filesystem::path& path) {
+  const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
+
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
+  std::filesystem::path temporary;
+  int fd = create_temporary(path, temporary);
+  // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.
+  const auto discard = [&] {
+    if (fd >= 0) ::close(fd);
+    fd = -1;
+    ::unlink(temporary.c_str());
+  };
+  const auto failed = [&](const std::string& what, int error) {
+    discard();
+    throw std::runtime_error("cannot write " + quoted(path) + ": " + what + ": " + std::strerror(error));
+  };
+  {
+    FdBuffer buffer(fd);
+    std::ostream out(&buffer);
+    try {
+      write(out);
+      out.flush();
+    } catch (...) {
+      discard();
+      throw;
+    }
+    if (!out) failed("writing " + quoted(temporary) + " failed", buffer.error() != 0 ? buffer.error() : EIO);
+  }
+  if (::fsync(fd) != 0) failed("fsync of " + quoted(temporary) + " failed", errno);
+  const int closed = ::close(fd);
+  fd = -1;
+  if (closed != 0) failed("closing " + quoted(temporary) + " failed", errno);
+  if (::rename(temporary.c_str(), path.c_str()) != 0)
+    failed("cannot rename " + quoted(temporary) + " into place", errno);
+  sync_directory(path);
+}
+
+void write_file_atomically(const std::filesystem::path& path, std::string_view text) {
+  write_file_atomically(path, [text](std::ostream& out) { out.write(text.data(), static_cast<std::streamsize>(text.size())); });
+}
+
+}  // namespace alc::io
