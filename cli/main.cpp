@@ -1,9 +1,12 @@
 // alc: adaptive learning control of thermal errors of a 5-axis machine's rotary axis.
+#include <cstddef>
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "commands.hpp"
+#include "common/log.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"alc: adaptive learning control of thermal errors of a 5-axis machine tool's rotary axis.\n"
@@ -11,6 +14,27 @@ int main(int argc, char** argv) {
                "(ARX), schedules touch-probe measurements, and turns predictions into NC axis offsets."};
   app.set_version_flag("--version", std::string("alc ") + ALC_VERSION);
   app.require_subcommand(1);
+
+  // Logging, for every command: given before the command (alc --log-level info replay ...).
+  std::string log_level = "warn";
+  alc::log::Options log_options;
+  app.add_option("--log-level", log_level,
+                 "Log level: trace, debug, info, warn, error, critical or off (default: warn)");
+  app.add_option("--log-file", log_options.file,
+                 "Also log to FILE (rotating: FILE, FILE.1, ...); its directory must exist")
+      ->option_text("FILE");
+  app.add_option("--log-max-bytes", log_options.max_file_bytes, "Size at which the log file rotates (default: 10 MiB)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--log-max-files", log_options.max_files, "Rotated log files kept besides FILE (default: 5)");
+  // Runs once the options are parsed and before the command's callback.
+  app.parse_complete_callback([&] {
+    const auto level = alc::log::parse_level(log_level);
+    if (!level)
+      throw alc::cli::UsageError("--log-level: '" + log_level +
+                                 "' is not a level (trace, debug, info, warn, error, critical, off)");
+    log_options.level = *level;
+    alc::log::configure(log_options);
+  });
   // Commands register here, one line each.
   alc::cli::add_simulate_command(app);
   alc::cli::add_replay_command(app);

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "common/atomic_file.hpp"
+#include "common/log.hpp"
 #include "nc_interface/nc_number.hpp"
 #include "nc_interface/recorder.hpp"
 
@@ -120,6 +121,7 @@ void LinuxcncrshClient::connect() {
   request("set echo off");  // answered by the echo of this very line
   set("verbose on");
   set("enable " + options_.enable_password);
+  alc::log::get("nc")->info("linuxcncrsh: connected to {}:{}", options_.host, options_.port);
 }
 
 std::string LinuxcncrshClient::read_line() {
@@ -257,7 +259,9 @@ void LinuxcncrshSink::deliver(const NcCommand& command) {
     if (!o) return;
     // The stored value of the target work offset, not pos_offset (active work offset + G92).
     got = client_.work_offset_values(o->work_offset);
-  } catch (const SinkError&) {
+  } catch (const SinkError& e) {
+    alc::log::get("nc")->info("linuxcncrsh {}:{}: closing the session after an error: {}", options_.host,
+                              options_.port, e.what());
     client_.close();  // a fresh session next time
     throw;
   }
@@ -285,6 +289,7 @@ DeliveryReport CommandQueue::flush(Sink& sink) {
       sink.deliver(pending_.front());
     } catch (const std::exception& e) {
       report.error = sink.name() + ": " + e.what();
+      alc::log::get("nc")->warn("delivery failed, {} command(s) kept pending: {}", pending_.size(), report.error);
       break;
     }
     pending_.pop_front();

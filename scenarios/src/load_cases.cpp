@@ -120,6 +120,8 @@ double sensor_reading(double truth, const SensorParams& s, SeededRandom& random)
   return quantise(truth + random.normal(s.noise_K), s.resolution_K);
 }
 
+std::uint64_t probe_seed_of(std::uint64_t seed) { return SeededRandom::derive_seed(seed, kProbeStream); }
+
 std::size_t samples_for(const LoadCaseInfo& info) {
   return static_cast<std::size_t>(std::llround(info.duration_h * kHour / info.step_s)) + 1;
 }
@@ -172,13 +174,21 @@ std::vector<double> spindle_speed_series(std::size_t samples, double step_s, See
   return speed;
 }
 
-// Sparse measurement times like a real recording: every 5 min for 6 h, every 30 min to 24 h,
-// then hourly; a few cycles missed.
-bool spindle_probe_due(double t_s, SeededRandom& random) {
-  const long t = std::lround(t_s);
-  const long interval = t <= 6 * 3600 ? 300 : (t <= 24 * 3600 ? 1800 : 3600);
-  if (t % interval != 0) return false;
-  return !random.chance(0.04);
+// The spindle recording's probe: sparse measurement times like a real recording (every 5 min for
+// 6 h, every 30 min to 24 h, then hourly; a few cycles missed), noise 0.5 µm, and a rare chip that
+// moves one output.
+probing::TwinProbeOptions spindle_probe_options() {
+  probing::TwinProbeOptions o;
+  o.noise_sigma.assign(kSpindleErrors, 0.5);
+  o.chip_probability = 0.01;
+  o.chip_min_um = 3.0;
+  o.chip_max_um = 10.0;
+  for (int e = 0; e < kSpindleErrors; ++e) o.chip_directions.push_back({{{e, 1.0}}});
+  o.chip_order = probing::ChipOrder::kBeforeNoise;
+  o.resolution = kErrorResolution;
+  o.schedule = {{6.0 * kHour, 300.0}, {24.0 * kHour, 1800.0}, {std::numeric_limits<double>::infinity(), 3600.0}};
+  o.miss_probability = 0.04;
+  return o;
 }
 
 SimulatedCase simulate_spindle_recording(const LoadCaseInfo& info, std::uint64_t seed) {
@@ -193,11 +203,12 @@ SimulatedCase simulate_spindle_recording(const LoadCaseInfo& info, std::uint64_t
   auto production_random = stream(seed, kProductionStream);
   auto drift_random = stream(seed, kDriftStream);
   auto sensor_random = stream(seed, kSensorStream);
-  auto probe_random = stream(seed, kProbeStream);
 
   SimulatedCase run;
   run.info = info;
   run.seed = seed;
+  run.probe = spindle_probe_options();
+  run.probe_seed = probe_seed_of(seed);
   const std::vector<double> ambient = ambient_series(hall, n, info.step_s, start_s, ambient_random);
   const std::vector<double> speed = spindle_speed_series(n, info.step_s, production_random);
   run.profile.time_s = uniform_times(n, info.step_s);
@@ -216,22 +227,14 @@ SimulatedCase simulate_spindle_recording(const LoadCaseInfo& info, std::uint64_t
   s.output_names = SpindleTwin::error_names();
   s.time_s = run.profile.time_s;
   s.inputs.resize(static_cast<Eigen::Index>(n), kSpindleSensors + 1);
-  s.outputs.setConstant(static_cast<Eigen::Index>(n), kSpindleErrors, std::numeric_limits<double>::quiet_NaN());
   const SensorParams sensors;
   for (std::size_t k = 0; k < n; ++k) {
     const auto r = static_cast<Eigen::Index>(k);
     const Eigen::VectorXd t = twin.sensors(run.truth.nodes.row(r).transpose(), ambient[k]);
     for (int j = 0; j < kSpindleSensors; ++j) s.inputs(r, j) = sensor_reading(t(j), sensors, sensor_random);
     s.inputs(r, kSpindleSensors) = speed[k];
-    if (!spindle_probe_due(s.time_s[k], probe_random)) continue;
-    const bool chip = probe_random.chance(0.01);
-    const int chip_output = static_cast<int>(probe_random.uniform() * kSpindleErrors);
-    for (int e = 0; e < kSpindleErrors; ++e) {
-      double v = run.truth.errors(r, e) + probe_random.normal(0.5);
-      if (chip && e == chip_output) v += probe_random.uniform(3.0, 10.0);
-      s.outputs(r, e) = quantise(v, kErrorResolution);
-    }
   }
+  s.outputs = make_probe(run, run.probe_seed).probe_run(s.time_s, run.truth.errors);
   return run;
 }
 
@@ -329,12 +332,8 @@ SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed) {
   s.output_names = ThermalTwin::error_names();
   s.time_s = run.profile.time_s;
   s.inputs.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(s.input_names.size()));
-  s.outputs.setConstant(static_cast<Eigen::Index>(n), kTwinErrors, std::numeric_limits<double>::quiet_NaN());
 
   auto sensor_random = stream(seed, kSensorStream);
-  auto probe_random = stream(seed, kProbeStream);
-  const ProbeParams& probe = spec.probe;
-  const auto probe_every = std::llround(probe.interval_s / spec.info.step_s);
   for (std::size_t k = 0; k < n; ++k) {
     const auto r = static_cast<Eigen::Index>(k);
     const ThermalLoad& load = run.profile.loads[k];
@@ -343,32 +342,43 @@ SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed) {
     s.inputs(r, 2) = sensor_reading(run.truth.nodes(r, kCoolant), spec.sensors, sensor_random);
     s.inputs(r, 3) = load.speed_rpm;
     if (fluid) s.inputs(r, 4) = load.fluid_on ? 1.0 : 0.0;
-    if (static_cast<long long>(k) % probe_every != 0) continue;
-
-    ErrorVector measured = run.truth.errors.row(r).transpose();
-    for (int e = 0; e < kTwinErrors; ++e)
-      measured(e) += probe_random.normal(e < 4 ? probe.noise_linear_um : probe.noise_angular_um_per_m);
-    if (probe_random.chance(probe.outlier_probability)) {
-      // A chip on the sphere shifts its measured centre along X, Y or Z; as the sphere sits on a
-      // lever above the table, the axis tilt seen in that direction jumps too.
-      const double shift = probe_random.uniform(probe.outlier_min_um, probe.outlier_max_um) *
-                           (probe_random.chance(0.5) ? 1.0 : -1.0);
-      const int axis = static_cast<int>(probe_random.uniform() * 3.0);
-      const double tilt = shift / probe.sphere_lever_m;  // [µm/m]
-      if (axis == 0) {  // X: E_X0C, E_R0T and the tilt about Y, E_B0C
-        measured(0) += shift;
-        measured(3) += shift;
-        measured(5) += tilt;
-      } else if (axis == 1) {  // Y: E_Y0C and the tilt about X, E_A0C
-        measured(1) += shift;
-        measured(4) -= tilt;
-      } else {  // Z: E_Z0T
-        measured(2) += shift;
-      }
-    }
-    for (int e = 0; e < kTwinErrors; ++e) s.outputs(r, e) = quantise(measured(e), kErrorResolution);
   }
+  run.probe = twin_probe_options(spec.probe);
+  run.probe_seed = probe_seed_of(seed);
+  s.outputs = make_probe(run, run.probe_seed).probe_run(s.time_s, run.truth.errors);
   return run;
+}
+
+probing::TwinProbeOptions twin_probe_options(const ProbeParams& probe) {
+  probing::TwinProbeOptions o;
+  o.noise_sigma.assign(kTwinErrors, probe.noise_angular_um_per_m);  // E_A0C, E_B0C, E_C0C
+  std::fill(o.noise_sigma.begin(), o.noise_sigma.begin() + 4, probe.noise_linear_um);  // E_X0C .. E_R0T
+  // A chip on the sphere shifts its measured centre along X, Y or Z; as the sphere sits on a
+  // lever above the table, the axis tilt seen in that direction jumps too.
+  o.chip_probability = probe.outlier_probability;
+  o.chip_min_um = probe.outlier_min_um;
+  o.chip_max_um = probe.outlier_max_um;
+  o.chip_random_sign = true;
+  const double tilt = 1.0 / probe.sphere_lever_m;  // [µm/m] per µm
+  o.chip_directions = {
+      {{{0, 1.0}, {3, 1.0}, {5, tilt}}},  // X: E_X0C, E_R0T and the tilt about Y, E_B0C
+      {{{1, 1.0}, {4, -tilt}}},           // Y: E_Y0C and the tilt about X, E_A0C
+      {{{2, 1.0}}},                       // Z: E_Z0T
+  };
+  o.chip_order = probing::ChipOrder::kAfterNoise;
+  o.resolution = kErrorResolution;
+  o.schedule = {probing::ProbeInterval{std::numeric_limits<double>::infinity(), probe.interval_s}};
+  return o;
+}
+
+probing::TwinProbe make_probe(const SimulatedCase& run, std::uint64_t probe_seed) {
+  return probing::TwinProbe(run.probe, probe_seed);
+}
+
+Scenario reprobe(const SimulatedCase& run, std::uint64_t probe_seed) {
+  Scenario s = run.scenario;
+  s.outputs = make_probe(run, probe_seed).probe_run(s.time_s, run.truth.errors);
+  return s;
 }
 
 SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed) {

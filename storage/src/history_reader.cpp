@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 
+#include "common/log.hpp"
 #include "record_io.hpp"
 #include "sqlite_db.hpp"
 #include "storage/storage_error.hpp"
@@ -30,6 +31,7 @@ HistoryReader::HistoryReader(const std::filesystem::path& path) : impl_(std::mak
   impl_->file = path;
   impl_->db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, impl_->version);
   impl_->db->exec("PRAGMA query_only = ON");
+  alc::log::get("storage")->info("opened history {} for reading (schema version {})", path.string(), impl_->version);
 }
 
 HistoryReader::~HistoryReader() = default;

@@ -6,6 +6,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "common/log.hpp"
 #include "record_io.hpp"
 #include "sqlite_db.hpp"
 #include "storage/schema.hpp"
@@ -147,6 +148,11 @@ struct HistoryWriter::Impl {
         db->exec("PRAGMA user_version = " + std::to_string(kSchemaVersion));
       }
       db->exec("COMMIT");
+      if (version == 0)
+        alc::log::get("storage")->info("history {}: created schema version {}", file.string(), kSchemaVersion);
+      else if (version < kSchemaVersion)
+        alc::log::get("storage")->info("history {}: migrated schema version {} to {}", file.string(), version,
+                                       kSchemaVersion);
     } catch (...) {
       sqlite3_exec(db->handle(), "ROLLBACK", nullptr, nullptr, nullptr);
       throw;
@@ -188,6 +194,7 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
                                     version);
   impl_->migrate(version);
   impl_->prepare();
+  alc::log::get("storage")->info("opened history {} for writing", path.string());
 }
 
 HistoryWriter::~HistoryWriter() {

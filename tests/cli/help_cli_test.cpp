@@ -49,7 +49,8 @@ void check_usage_error(const std::string& args, const std::string& says) {
 }  // namespace
 
 TEST_CASE("alc --help lists every command and exits 0") {
-  check_help("--help", {"--version", "simulate", "replay", "bench", "db", "nc"});
+  check_help("--help", {"--version", "simulate", "replay", "bench", "db", "nc", "--log-level", "--log-file",
+                        "--log-max-bytes", "--log-max-files"});
   check_help("-h", {"simulate", "replay", "bench", "db", "nc"});
 }
 

@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "probing/twin_probe.hpp"
 #include "scenarios/scenario.hpp"
 #include "scenarios/thermal_twin.hpp"
 
@@ -119,6 +120,10 @@ struct LoadProfile {
 
 LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed);
 
+// The probe of cases A–D (probing::TwinProbe): every error every `interval_s`, noise per kind,
+// and rare chips on the sphere that shift its centre along X, Y or Z (and tilt it by the lever).
+probing::TwinProbeOptions twin_probe_options(const ProbeParams& probe);
+
 // A simulated case: what ALC may see, and the truth behind it.
 struct SimulatedCase {
   LoadCaseInfo info;
@@ -126,7 +131,17 @@ struct SimulatedCase {
   Scenario scenario;          // sensors (noisy, quantised) and sparse noisy probe measurements
   TwinTruth truth;            // noiseless node temperatures and true errors at every sample
   LoadProfile profile;        // the loads that drove the twin
+  // The probe that measured scenario.outputs from truth.errors: its options and the seed of its
+  // stream (derived from `seed`). make_probe(run, run.probe_seed) reads the same values again.
+  probing::TwinProbeOptions probe;
+  std::uint64_t probe_seed = 0;
 };
+
+// The case's probe with its own stream seeded by `probe_seed`: a new probe of the same machine.
+probing::TwinProbe make_probe(const SimulatedCase& run, std::uint64_t probe_seed);
+// The case's scenario probed again (run.probe, `probe_seed`) from the same truth: the same times,
+// inputs and names, other measurements. reprobe(run, run.probe_seed) gives run.scenario.
+Scenario reprobe(const SimulatedCase& run, std::uint64_t probe_seed);
 
 // Simulates case A–D from its spec.
 SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed);

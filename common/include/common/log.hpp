@@ -1,0 +1,34 @@
+#pragma once
+// Logging: one spdlog logger per component ("runtime", "storage", "nc", "probing", "cli",
+// "scenarios", ...), all writing to the same configured sinks (stderr and/or a rotating file).
+// Lines read `[2026-11-23 18:00:00.123] [info] [storage] message`. Quiet (warn) by default.
+#include <spdlog/spdlog.h>
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace alc::log {
+
+struct Options {
+  spdlog::level::level_enum level = spdlog::level::warn;  // quiet by default
+  std::string file;                 // "" = no file; else a rotating file sink
+  std::size_t max_file_bytes = 10 * 1024 * 1024;
+  std::size_t max_files = 5;
+  bool to_stderr = true;
+};
+
+// (Re)configures every component logger (existing and future): sinks and level. Throws
+// std::runtime_error naming the file on a file that cannot be opened (its directory must exist).
+// On a throw the previous configuration stays in force.
+void configure(const Options& options);
+
+// The logger of one component, created on first use with the configured sinks; never null.
+std::shared_ptr<spdlog::logger> get(const std::string& component);
+
+// "trace","debug","info","warn","error","critical","off" -> level; nullopt otherwise.
+std::optional<spdlog::level::level_enum> parse_level(std::string_view text);
+
+}  // namespace alc::log

@@ -1,0 +1,65 @@
+// The global logging options of `alc`: --log-level, --log-file (rotating), for every command.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <string>
+
+#include "../cli_support.hpp"
+#include "storage/history_writer.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+alc_test::CliRun run(const std::string& args) { return alc_test::run_alc(args, "log_cli_test"); }
+
+// (Built with append: "'" + string trips GCC 12's -Wrestrict false positive.)
+std::string quoted(const fs::path& p) { return std::string(1, '\'').append(p.string()).append(1, '\''); }
+
+// An empty history (schema created, no runs) in the test's scratch directory.
+fs::path empty_history() {
+  const fs::path file = alc_test::work_dir("log_cli_test") / "history.sqlite";
+  fs::remove(file);
+  alc::storage::HistoryWriter writer(file);
+  writer.close();
+  return file;
+}
+
+}  // namespace
+
+TEST_CASE("alc --log-level: an unknown level is a usage error naming it, before the command runs") {
+  const auto r = run("--log-level nope simulate --list");
+  CHECK(r.exit_code == 2);
+  CHECK(r.out.empty());
+  CHECK_THAT(r.err, Catch::Contains("'nope'") && Catch::Contains("--log-level"));
+  // A level after the command is the command's (unknown) option, also a usage error.
+  CHECK(run("simulate --list --log-level info").exit_code == 2);
+  CHECK(run("--log-level info simulate --list").exit_code == 0);
+}
+
+TEST_CASE("alc --log-file: opening a history logs a [storage] line to the file at info, nothing at the default level") {
+  const fs::path history = empty_history();
+  const fs::path log = alc_test::work_dir("log_cli_test") / "alc.log";
+  fs::remove(log);
+  const auto r = run("--log-level info --log-file " + quoted(log) + " db info " + quoted(history));
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const std::string text = alc_test::slurp(log);
+  CHECK_THAT(text, Catch::Contains("[info] [storage]") && Catch::Contains(history.string()));
+  CHECK_THAT(r.err, Catch::Contains("[storage]"));  // stderr gets the line too
+
+  fs::remove(log);
+  const auto quiet = run("--log-file " + quoted(log) + " --log-max-bytes 4096 --log-max-files 2 db info " + quoted(history));
+  CHECK(quiet.exit_code == 0);
+  CHECK(alc_test::slurp(log).find("[storage]") == std::string::npos);  // warn by default
+  CHECK(quiet.err.empty());
+}
+
+TEST_CASE("alc --log-file in a directory that does not exist fails naming the file") {
+  const fs::path log = alc_test::work_dir("log_cli_test") / "no_such_dir" / "alc.log";
+  fs::remove_all(log.parent_path());
+  const auto r = run("--log-file " + quoted(log) + " simulate --list");
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Contains(log.string()));
+  CHECK(r.out.empty());
+}

@@ -1,0 +1,112 @@
+// alc::log: one logger per component, all on the configured sinks (stderr, rotating file).
+#include <catch2/catch.hpp>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <stdexcept>
+#include <string>
+
+#include "common/log.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("alc_log_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  fs::remove(p);
+  return p;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+alc::log::Options to_file(const fs::path& file, spdlog::level::level_enum level) {
+  alc::log::Options o;
+  o.level = level;
+  o.file = file.string();
+  o.to_stderr = false;
+  return o;
+}
+
+// Back to the default (stderr only, warn): releases the test's files.
+struct ResetLog {
+  ~ResetLog() { alc::log::configure({}); }
+};
+
+}  // namespace
+
+TEST_CASE("log: level names parse to spdlog levels, anything else is refused") {
+  using alc::log::parse_level;
+  CHECK(parse_level("trace") == spdlog::level::trace);
+  CHECK(parse_level("debug") == spdlog::level::debug);
+  CHECK(parse_level("info") == spdlog::level::info);
+  CHECK(parse_level("warn") == spdlog::level::warn);
+  CHECK(parse_level("error") == spdlog::level::err);
+  CHECK(parse_level("critical") == spdlog::level::critical);
+  CHECK(parse_level("off") == spdlog::level::off);
+  CHECK_FALSE(parse_level("nope").has_value());
+  CHECK_FALSE(parse_level("").has_value());
+  CHECK_FALSE(parse_level("INFO").has_value());
+  CHECK_FALSE(parse_level("info ").has_value());
+}
+
+TEST_CASE("log: a file sink gets time, level, component and message; lines below the level are dropped") {
+  const ResetLog reset;
+  // A logger that exists before configure() follows the new configuration too.
+  const auto early = alc::log::get("runtime");
+  REQUIRE(early != nullptr);
+  CHECK(alc::log::get("runtime") == early);
+  const fs::path file = scratch("line.log");
+  alc::log::configure(to_file(file, spdlog::level::info));
+  alc::log::get("storage")->info("opened history {}", "h.sqlite");
+  alc::log::get("storage")->debug("not at info");
+  early->warn("late {}", 7);
+  const std::string text = slurp(file);
+  const std::regex line(R"(\[\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3}\] \[info\] \[storage\] opened history h\.sqlite\n)");
+  CHECK(std::regex_search(text, line));
+  CHECK(text.find("[runtime] late 7") != std::string::npos);
+  CHECK(text.find("not at info") == std::string::npos);
+
+  // Raising the level applies to the existing loggers.
+  alc::log::configure(to_file(file, spdlog::level::err));
+  alc::log::get("storage")->warn("quiet now");
+  CHECK(slurp(file).find("quiet now") == std::string::npos);
+}
+
+TEST_CASE("log: a small maximum size rotates the file into numbered files, at most max_files of them") {
+  const ResetLog reset;
+  const fs::path file = scratch("rot.log");
+  for (const char* old : {"rot.1.log", "rot.2.log", "rot.3.log"}) fs::remove(file.parent_path() / old);
+  alc::log::Options o = to_file(file, spdlog::level::info);
+  o.max_file_bytes = 300;
+  o.max_files = 2;
+  alc::log::configure(o);
+  for (int i = 0; i < 40; ++i) alc::log::get("nc")->info("delivery line number {}", i);
+  CHECK(fs::exists(file));
+  CHECK(fs::exists(file.parent_path() / "rot.1.log"));
+  CHECK(fs::exists(file.parent_path() / "rot.2.log"));
+  CHECK_FALSE(fs::exists(file.parent_path() / "rot.3.log"));
+  CHECK(fs::file_size(file) <= 300);
+  CHECK(slurp(file).find("delivery line number 39") != std::string::npos);
+}
+
+TEST_CASE("log: a file in a directory that does not exist is refused, naming it, and the old sinks stay") {
+  const ResetLog reset;
+  const fs::path good = scratch("kept.log");
+  alc::log::configure(to_file(good, spdlog::level::info));
+  const std::string bad = (fs::temp_directory_path() / "alc_no_such_dir_for_log" / "x.log").string();
+  fs::remove_all(fs::path(bad).parent_path());
+  CHECK_THROWS_AS(alc::log::configure(to_file(bad, spdlog::level::info)), std::runtime_error);
+  CHECK_THROWS_WITH(alc::log::configure(to_file(bad, spdlog::level::info)), Catch::Contains(bad));
+  CHECK_FALSE(fs::exists(fs::path(bad).parent_path()));
+  alc::log::get("cli")->info("still here");
+  CHECK(slurp(good).find("[cli] still here") != std::string::npos);
+}
