@@ -486,6 +486,7 @@ TEST_CASE("controller: after CP, memory holds the learning window plus the warm-
   AlcParameters p = test_parameters();
   p.learning_window_s = 2 * 86400.0;
   p.post_cp_interval_s = 6 * 3600.0;
+  p.refit_on_probe = true;  // learn from every Post-CP probe: the fits run on the trimmed history
   Controller c({"T"}, {"E_X0C"}, p);
   Eigen::VectorXd u(1);
   const double bound_s = p.learning_window_s * 1.25 + kWarmupTimeConstants * p.identification.tau_max_s;
@@ -516,6 +517,7 @@ TEST_CASE("controller: after CP, memory holds the learning window plus the warm-
   CHECK(c.state().samples == 40 * 1440);
   CHECK(c.state().history_first_index > 30 * 1440);  // most of the run is gone from memory
   CHECK(largest <= static_cast<std::size_t>(bound_s / 60.0) + 2);
+  INFO("rejected fits " << c.state().rejected_fits << ", probes kept " << c.state().probes.size() << ", cycles " << c.state().probe_cycles << ", phase " << to_string(c.phase()));
   CHECK(c.state().updates > 10);  // and it kept learning from the probes of its window
 }
 

@@ -58,7 +58,7 @@ TEST_CASE("log: level names parse to spdlog levels, anything else is refused") {
   CHECK_FALSE(parse_level("info ").has_value());
 }
 
-TEST_CASE("log: a file sink gets time, level, component and message; lines below the level are dropped") {
+TEST_CASE("log: a file sink gets time, level, component and message, and drops lines below the level") {
   const ResetLog reset;
   // A logger that exists before configure() follows the new configuration too.
   const auto early = alc::log::get("runtime");

@@ -106,7 +106,7 @@ TEST_CASE("twin probe: chips come with their probability and size and move the o
   }
 }
 
-TEST_CASE("twin probe: no chip without a chip probability; readings are rounded to the resolution") {
+TEST_CASE("twin probe: no chip without a chip probability, and readings are rounded to the resolution") {
   TwinProbeOptions o = noise_only();
   o.resolution = 0.01;
   TwinProbe probe(o, 3);
