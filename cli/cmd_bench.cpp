@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <tuple>
 #include <unistd.h>
@@ -20,11 +21,74 @@ namespace {
 struct BenchArgs {
   std::string case_name = "all";
   int repeat = 3;
+  double long_days = 0.0;  // > 0: the long-run benchmark (memory and time over months)
 };
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
+
+// [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.
+double proc_status_kb(const std::string& field) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(field + ":", 0) == 0) return std::atof(line.c_str() + field.size() + 1);
+  return 0.0;
+}
+
+// A long simulated run (case A stretched to `days`) recorded into a fresh history, as a supervisor
+// records one sample a minute: at each checkpoint the process's peak and current RSS, the time per
+// sample over the day before it, the samples the controller keeps, the size of a snapshot and of the
+// database. Once with the default learning window (14 d), then with --window inf as the baseline.
+void run_long_bench(const BenchArgs& a, const std::filesystem::path& dir) {
+  scenarios::LoadCaseSpec spec = scenarios::load_case_spec(a.case_name == "all" ? "A" : a.case_name);
+  spec.info.duration_h = a.long_days * 24.0;
+  const double s0 = now_s();
+  const auto simulated = scenarios::simulate_load_case(spec, spec.info.default_seed);
+  const auto& sc = simulated.scenario;
+  std::printf("case %s stretched to %.0f days: %zu samples at %.0f s, simulated in %.1f s; RSS after simulation %.1f MB\n",
+              spec.info.name.c_str(), a.long_days, sc.samples(), spec.info.step_s, now_s() - s0,
+              proc_status_kb("VmRSS") / 1024.0);
+  std::printf("%-10s %6s %14s %14s %13s %15s %15s %12s %8s\n", "window", "day", "peak RSS [MB]", "RSS [MB]",
+              "µs/sample", "samples kept", "snapshot [kB]", "db [MB]", "P99[µm]");
+  std::vector<double> checkpoints;
+  for (double d : {10.0, 30.0, 60.0, 90.0, 180.0, 365.0})
+    if (d < a.long_days) checkpoints.push_back(d);
+  checkpoints.push_back(a.long_days);
+  for (const bool bounded : {true, false}) {
+    const auto db = dir / (bounded ? "long-window.sqlite" : "long-inf.sqlite");
+    runtime::ReplayOptions o;
+    o.source = "bench long";
+    o.db = db;
+    if (!bounded) o.parameters.learning_window_s = kInf;
+    runtime::Replay replay(sc, std::move(o));
+    const double t0 = sc.time_s.front();
+    for (const double day : checkpoints) {
+      const double end_s = t0 + day * 86400.0 + 1.0;
+      replay.advance(end_s - 86400.0);
+      const auto rows_before = static_cast<double>(replay.controller().state().samples);
+      const double start = now_s();
+      replay.advance(end_s);
+      const double per_sample = (now_s() - start) / (static_cast<double>(replay.controller().state().samples) - rows_before);
+      const std::string snapshot = replay.encode_state();
+      const auto& c = replay.controller().state();
+      std::error_code ec;
+      const double db_mb = static_cast<double>(std::filesystem::file_size(db, ec)) / 1e6;
+      const runtime::ReplayReport r = replay.report();
+      std::printf("%-10s %6.0f %14.1f %14.1f %13.1f %15zu %15.1f %12.1f %8.2f\n", bounded ? "14 d" : "inf", day,
+                  proc_status_kb("VmHWM") / 1024.0, proc_status_kb("VmRSS") / 1024.0, per_sample * 1e6,
+                  c.history.time_s.size(), static_cast<double>(snapshot.size()) / 1024.0, ec ? 0.0 : db_mb,
+                  r.mean_p99(ErrorKind::Linear));
+      std::fflush(stdout);
+    }
+    replay.run();
+  }
+  std::printf("µs/sample: wall time of the day before the checkpoint per sample (identifications included);\n"
+              "peak RSS is the process's (the simulated scenario itself is held in memory); P99: mean linear P99\n"
+              "so far; the inf baseline runs after the bounded one in the same process, so its peak includes the first.\n");
+}
+
 
 struct Timing {
   double replay_s = kInf;          // [s] best of the repeats, no history
@@ -83,6 +147,12 @@ void run_bench(const BenchArgs& a) {
   const std::vector<std::string> names = load_case_names(a.case_name);
   const auto dir = std::filesystem::temp_directory_path() / ("alc-bench-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
+  if (a.long_days > 0.0) {
+    if (names.size() != 1 && a.case_name != "all") throw UsageError("--long: give one case of A-D");
+    run_long_bench(a, dir);
+    std::filesystem::remove_all(dir);
+    return;
+  }
   std::printf("%-5s %8s %10s %12s %14s %12s %16s %9s %18s %9s\n", "case", "samples", "sim [ms]", "replay [ms]",
               "ident. share", "µs/sample", "with --db [ms]", "db/plain", "full search [ms]", "speed-up");
   for (const auto& name : names) {
@@ -111,6 +181,12 @@ void add_bench_command(CLI::App& app) {
                "the history database against replay without it (ratio), all in one invocation.");
   cmd->add_option("--case", args->case_name, "A, B, C, D, S16 or all")->capture_default_str();
   cmd->add_option("--repeat", args->repeat, "Runs per measurement; the best is reported")->capture_default_str();
+  cmd->add_option("--long", args->long_days,
+                  "Long-run benchmark instead: case A (or --case B|C|D) stretched to DAYS days, recorded into a "
+                  "history; peak RSS, µs/sample, samples kept, snapshot and database size at 10, 30, 60, 90 ... days, "
+                  "with the default learning window and with --window inf")
+      ->type_name("DAYS")
+      ->check(CLI::Range(1.0, 3650.0));
   cmd->callback([args] { run_bench(*args); });
 }
 

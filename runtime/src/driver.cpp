@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "common/log.hpp"
+
 namespace alc::runtime {
 
 namespace {
@@ -58,10 +60,14 @@ ControllerOutput Driver::sample(const Sample& sample) {
   ControllerOutput out = controller_.on_sample(sample.time_s, sample.inputs);
   if (out.fit) identification_s_ += seconds_since(start);
   if (!out.accepted) {
+    log::get("runtime")->warn("sample {} rejected: {}", sample.index, out.reason);
     for (Observer* o : observers_) o->on_rejected(sample, nullptr, out.reason);
     return out;
   }
   last_ = sample;
+  for (const ControllerEvent& e : out.events)
+    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected)
+      log::get("runtime")->info("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -72,10 +78,13 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
   ControllerOutput out = controller_.on_probe(probe);
   if (out.fit) identification_s_ += seconds_since(start);
   if (!out.accepted || !last_) {
+    log::get("runtime")->warn("probe at t = {} s rejected: {}", probe.time_s, out.reason);
     const Sample none{};
     for (Observer* o : observers_) o->on_rejected(last_ ? *last_ : none, &probe, out.reason);
     return out;
   }
+  for (const ControllerEvent& e : out.events)
+    log::get("runtime")->debug("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
   notify(Cycle::Kind::Probe, &probe, out, before);
   return out;
 }

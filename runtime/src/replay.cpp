@@ -139,10 +139,14 @@ std::optional<storage::RunId> Replay::run_id() const {
 
 void Replay::run() { run_until(options_.stop_time_s); }
 
-void Replay::run_until(double stop_time_s) {
+void Replay::advance(double stop_time_s) {
   const auto start = std::chrono::steady_clock::now();
   driver_->run(source_, stop_time_s);
   total_s_ += seconds_since(start);
+}
+
+void Replay::run_until(double stop_time_s) {
+  advance(stop_time_s);
   if (ended_) return;
   ended_ = true;
   if (lifecycle_) {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/log.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
 
@@ -56,6 +57,7 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRecord& record, double snapshot_every_s)
     : writer_(writer), snapshot_every_s_(snapshot_every_s) {
   run_ = writer_.begin_run(record);
+  log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
@@ -77,6 +79,8 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
     throw ResumeRefused(db.string() + ": run " + std::to_string(run_) + " has a snapshot of format '" +
                         point.snapshot.format + "', this program resumes " + kRunStateFormat);
   resumed_from_ = point.snapshot;
+  log::get("runtime")->info("run {} of '{}' resumed from its snapshot at t = {} s (sample {})", run_, record.source,
+                            point.snapshot.time_s, point.snapshot.next_sample_index);
 }
 
 void RunLifecycle::save_snapshot(const Controller& controller, std::int64_t next_index) {
@@ -89,6 +93,7 @@ void RunLifecycle::save_snapshot(const Controller& controller, std::int64_t next
   snap.is_json = false;
   snap.payload = encoder_ ? encoder_(next_index) : std::string();
   writer_.save_snapshot(snap);
+  log::get("runtime")->debug("run {}: snapshot at t = {} s, {} bytes", run_, snap.time_s, snap.payload.size());
   // Before the first sample the start time is not known yet: on_sample_done() counts from it then.
   next_snapshot_s_ = c.started ? c.now_s + snapshot_every_s_ : -kInf;
 }
@@ -101,10 +106,12 @@ void RunLifecycle::on_sample_done(const Sample&, const Controller& controller, s
 
 void RunLifecycle::record_delivery(const std::string& sink, bool delivered, const std::string& message) {
   writer_.record_delivery(run_, sink, delivered, message);
+  if (!delivered) log::get("runtime")->warn("run {}: NC output to {} not delivered: {}", run_, sink, message);
 }
 
 void RunLifecycle::end(bool finished) {
   writer_.end_run(run_, finished ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
+  log::get("runtime")->info("run {} {}", run_, finished ? "finished" : "stopped (resumable)");
 }
 
 }  // namespace alc::runtime

@@ -57,6 +57,9 @@ class Replay {
   // cannot be written their delivery is recorded as failed and the error is rethrown.
   void run();
   void run_until(double stop_time_s);
+  // Drives the rows before `stop_time_s` without ending anything (a benchmark's checkpoints); run()
+  // or run_until() ends the run later.
+  void advance(double stop_time_s);
 
   bool finished() const { return source_.finished(); }
   ReplayReport report() const;
