@@ -46,7 +46,7 @@ struct ReplayArgs {
   bool seed_given = false;
   std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
   double acl_lin = 5.0, acl_ang = 15.0;
-  std::string window = "inf", half_life = "inf", method = "fixed-poles";
+  std::string window = "336", half_life = "inf", method = "fixed-poles";  // window: 14 d, AlcParameters default
   std::string since;           // [h] of scenario time: learn only from probes at or after it; "" = all
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;

@@ -194,3 +194,23 @@ TEST_CASE("alc replay --case all prints the Tab. 3 table whose rows are the sing
     CHECK(upd == j["updates"].get<int>());
   }
 }
+
+TEST_CASE("alc replay: a run's identity is the parsed parameters, not their text") {
+  const fs::path db = work_dir() / "identity.sqlite";
+  fs::remove(db);
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10 --cp 6.5 --interval 2").exit_code == 0);
+  // The same values written otherwise resume the run; the default window (14 d = 336 h) is stored.
+  const Run r = alc("replay --case A --db \"" + db.string() + "\" --resume --cp 6.50 --interval 2.0 --window 336 --json");
+  INFO(r.err);
+  CHECK(r.exit_code == 0);
+  const Run info = alc("db export \"" + db.string() + "\" --table runs --out \"" + (work_dir() / "runs.csv").string() + "\"");
+  REQUIRE(info.exit_code == 0);
+  const std::string runs = alc_test::slurp(work_dir() / "runs.csv");
+  CHECK_THAT(runs, Catch::Matchers::Contains("cp_duration_s") && Catch::Matchers::Contains("23400") &&
+                       Catch::Matchers::Contains("1209600"));
+  // Another value is another run.
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10 --window 100").exit_code == 0);
+  const Run other = alc("replay --case A --db \"" + db.string() + "\" --resume");
+  CHECK(other.exit_code == 2);
+  CHECK_THAT(other.err, Catch::Matchers::Contains("\"learning_window_s\":360000.0"));
+}
