@@ -49,7 +49,7 @@ NcObserverOptions nc_observer_options(const nc::MachineConfig& config) {
 }
 
 NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_names, NcObserverOptions options)
-    : options_(std::move(options)), recorder_(options_.limits) {
+    : options_(std::move(options)), recorder_(nc::recorder_for(options_.dialect, options_.limits)) {
   if (const std::string e = kinematics::validate(options_.chain); !e.empty())
     throw std::invalid_argument("NC observer: machine chain: " + e);
   if (!(options_.period_s > 0.0)) throw std::invalid_argument("NC observer: period_s must be > 0");

@@ -43,6 +43,7 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
   }
   if (options_.nc) {
     NcObserverOptions o = nc_observer_options(options_.machine);
+    o.dialect = options_.nc->dialect;
     nc_.emplace(scenario.output_names, o);
     if (writer_)
       nc_->set_history({writer_.get(), lifecycle_->run(), nc_sink_name(options_.nc->dir), options_.nc->dialect,

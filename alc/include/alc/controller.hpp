@@ -65,7 +65,7 @@ struct AlcParameters {
 };
 
 // What a probe cycle measured. In closed loop the probe sees the error left after compensation;
-// the thermal error that the model learns is `measured + compensation` (DESIGN.md, closed loop).
+// the thermal error that the model learns is `measured + compensation` (docs/design.md, "Closed loop").
 struct ProbeMeasurement {
   double time_s = 0.0;           // [s]
   Eigen::VectorXd measured;      // [µm] / [µm/m] per output; NaN where not measured

@@ -39,6 +39,7 @@ namespace alc::runtime {
 
 struct NcObserverOptions {
   kinematics::MachineChain chain = kinematics::MachineChain::ac_trunnion();
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;  // the gate's offset registers (nc::recorder_for)
   int work_offset = 1;               // 1 = G54 … 6 = G59
   nc::SafetyLimits limits;
   double period_s = 900.0;           // [s] scenario time between periodic moments (15 min)
