@@ -89,7 +89,6 @@ void run_long_bench(const BenchArgs& a, const std::filesystem::path& dir) {
               "so far; the inf baseline runs after the bounded one in the same process, so its peak includes the first.\n");
 }
 
-
 struct Timing {
   double replay_s = kInf;          // [s] best of the repeats, no history
   double identification_s = 0.0;   // [s] in that best run

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "common/number_text.hpp"
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/machine_config.hpp"
 #include "nc_interface/recorder.hpp"
@@ -46,7 +47,8 @@ struct ReplayArgs {
   bool seed_given = false;
   std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
   double acl_lin = 5.0, acl_ang = 15.0;
-  std::string window = "336", half_life = "inf", method = "fixed-poles";  // window: 14 d, AlcParameters default
+  std::string window = common::shortest_text(AlcParameters{}.learning_window_s / 3600.0);  // [h] 336 = 14 d
+  std::string half_life = "inf", method = "fixed-poles";
   std::string since;           // [h] of scenario time: learn only from probes at or after it; "" = all
   int max_order = IdentificationOptions{}.max_order;
   bool json = false;
@@ -62,7 +64,6 @@ struct ReplayArgs {
   std::string dialect = "linuxcnc";
   std::string machine;         // machine config (TOML), "" = built-in defaults
 };
-
 
 AlcParameters parameters_from(const ReplayArgs& a) {
   AlcParameters p;

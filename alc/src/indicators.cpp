@@ -70,5 +70,4 @@ double smape_percent(std::span<const double> measured, std::span<const double> p
   return 100.0 * sum / static_cast<double>(measured.size());
 }
 
-
 }  // namespace alc

@@ -178,6 +178,12 @@ void set_location_error(LocationErrors& e, int field, double value) {
   }
 }
 
+bool maps_any_location_error(const std::vector<std::string>& names) {
+  for (const auto& name : names)
+    if (location_error_field(name) >= 0) return true;
+  return false;
+}
+
 LocationErrors location_errors_of(const std::vector<std::string>& names, const Eigen::VectorXd& values) {
   LocationErrors e;
   for (std::size_t k = 0; k < names.size() && static_cast<Eigen::Index>(k) < values.size(); ++k) {

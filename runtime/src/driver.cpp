@@ -13,34 +13,22 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 Cycle::Cycle(Kind kind, const Sample& sample, const ProbeMeasurement* probe, const ControllerOutput& out,
-             const Controller& controller, Phase phase_before, const CompensationSetup* setup,
-             const std::vector<int>* fields)
+             const Controller& controller, Phase phase_before, const CompensationSetup* setup)
     : kind_(kind), sample_(sample), probe_(probe), out_(out), controller_(controller), phase_before_(phase_before),
-      setup_(setup), fields_(fields) {}
+      setup_(setup) {}
 
 const kinematics::Compensation* Cycle::compensation() const {
   if (!computed_) {
     computed_ = true;
-    if (setup_ && fields_) {
-      kinematics::LocationErrors errors;
-      for (std::size_t k = 0; k < fields_->size(); ++k) {
-        const auto i = static_cast<Eigen::Index>(k);
-        if ((*fields_)[k] < 0 || i >= out_.prediction.size()) continue;
-        const double v = out_.prediction[i];
-        if (std::isfinite(v)) kinematics::set_location_error(errors, (*fields_)[k], v);
-      }
-      compensation_ = kinematics::compensate(setup_->chain, setup_->pose, errors);
-    }
+    if (setup_)
+      compensation_ = kinematics::compensate(
+          setup_->chain, setup_->pose, kinematics::location_errors_of(controller_.output_names(), out_.prediction));
   }
   return compensation_ ? &*compensation_ : nullptr;
 }
 
-Driver::Driver(Controller& controller) : controller_(controller) {
-  for (const auto& name : controller_.output_names()) {
-    fields_.push_back(kinematics::location_error_field(name));
-    if (fields_.back() >= 0) maps_any_ = true;
-  }
-}
+Driver::Driver(Controller& controller)
+    : controller_(controller), maps_any_(kinematics::maps_any_location_error(controller.output_names())) {}
 
 void Driver::set_machine(CompensationSetup setup) {
   if (const std::string e = kinematics::validate(setup.chain); !e.empty())
@@ -49,8 +37,7 @@ void Driver::set_machine(CompensationSetup setup) {
 }
 
 void Driver::notify(Cycle::Kind kind, const ProbeMeasurement* probe, const ControllerOutput& out, Phase before) {
-  const Cycle cycle(kind, *last_, probe, out, controller_, before, setup_ ? &*setup_ : nullptr,
-                    maps_any_ ? &fields_ : nullptr);
+  const Cycle cycle(kind, *last_, probe, out, controller_, before, setup_ && maps_any_ ? &*setup_ : nullptr);
   for (Observer* o : observers_) o->on_cycle(cycle);
 }
 

@@ -20,9 +20,7 @@ std::vector<std::string> HistoryRecorder::offset_names(const kinematics::Machine
 
 std::vector<std::string> HistoryRecorder::offset_names(const kinematics::MachineChain& chain,
                                                        const std::vector<std::string>& output_names) {
-  const bool maps = std::any_of(output_names.begin(), output_names.end(),
-                                [](const std::string& n) { return kinematics::location_error_field(n) >= 0; });
-  return maps ? offset_names(chain) : std::vector<std::string>{};
+  return kinematics::maps_any_location_error(output_names) ? offset_names(chain) : std::vector<std::string>{};
 }
 
 void HistoryRecorder::record_events(const Cycle& cycle) {

@@ -58,8 +58,7 @@ NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_name
   // The starting point of the comparison: zero offsets on the axes of this chain.
   last_ = nc::to_axis_offsets(kinematics::Compensation{}, options_.chain, options_.work_offset);
   in_force_ = last_;
-  for (const std::string& name : output_names)
-    if (kinematics::location_error_field(name) >= 0) maps_any_ = true;
+  maps_any_ = kinematics::maps_any_location_error(output_names);
 }
 
 void NcCommandObserver::on_cycle(const Cycle& cycle) { handle(cycle); }

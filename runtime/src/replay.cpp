@@ -17,14 +17,13 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
     : scenario_(scenario),
       options_(std::move(options)),
-      controller_(std::make_unique<Controller>(scenario.input_names, scenario.output_names, options_.parameters,
-                                               options_.schedule)),
+      controller_(scenario.input_names, scenario.output_names, options_.parameters, options_.schedule),
       source_(scenario),
-      evaluation_(scenario) {
-  driver_ = std::make_unique<Driver>(*controller_);
-  driver_->add(evaluation_);
+      evaluation_(scenario),
+      driver_(controller_) {
+  driver_.add(evaluation_);
   const bool machine = !options_.db.empty() || options_.nc.has_value();
-  if (machine) driver_->set_machine({options_.machine.chain, {}});
+  if (machine) driver_.set_machine({options_.machine.chain, {}});
   if (!options_.db.empty()) {
     storage::WriterOptions w;
     w.create_directories = true;
@@ -39,7 +38,7 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
     }
     lifecycle_->set_encoder([this](std::int64_t) { return encode_state(); });
     recorder_ = std::make_unique<HistoryRecorder>(*writer_, lifecycle_->run(), !record.offset_names.empty());
-    driver_->add(*recorder_);
+    driver_.add(*recorder_);
   }
   if (options_.nc) {
     NcObserverOptions o = nc_observer_options(options_.machine);
@@ -48,13 +47,13 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
     if (writer_)
       nc_->set_history({writer_.get(), lifecycle_->run(), nc_sink_name(options_.nc->dir), options_.nc->dialect,
                         options_.machine.nc});
-    driver_->add(*nc_);
+    driver_.add(*nc_);
   }
   if (lifecycle_) {
-    driver_->add(*lifecycle_);  // after the recorders: a snapshot commits what they added
-    if (!options_.resume) lifecycle_->save_snapshot(*controller_, 0);  // a killed run can always resume
+    driver_.add(*lifecycle_);  // after the recorders: a snapshot commits what they added
+    if (!options_.resume) lifecycle_->save_snapshot(controller_, 0);  // a killed run can always resume
   }
-  for (Observer* o : options_.observers) driver_->add(*o);
+  for (Observer* o : options_.observers) driver_.add(*o);
 }
 
 Replay::~Replay() = default;
@@ -63,7 +62,7 @@ storage::RunRecord Replay::run_record() const {
   storage::RunRecord r;
   r.source = options_.source;
   nlohmann::json identity = {{"parameters", canonical_parameters(options_.parameters,
-                                                                 controller_->schedule().name())}};
+                                                                 controller_.schedule().name())}};
   for (const auto& [k, v] : options_.identity.items()) identity[k] = v;
   r.config_json = identity.dump();
   r.software_version = options_.software_version;
@@ -77,10 +76,10 @@ storage::RunRecord Replay::run_record() const {
 std::string Replay::encode_state() const {
   RunState s;
   s.next_index = static_cast<std::int64_t>(source_.position());
-  s.controller = controller_->state();
+  s.controller = controller_.state();
   s.baseline_fitted = evaluation_.baseline_fitted();
   s.baseline = evaluation_.baseline();
-  s.identification_s = driver_->identification_s();
+  s.identification_s = driver_.identification_s();
   s.total_s = total_s_;
   return encode_run_state(s);
 }
@@ -121,14 +120,9 @@ void Replay::restore(const storage::ControllerSnapshot& snapshot) {
     evaluation_.rebuild(static_cast<std::size_t>(samples[k].sample_index),
                         Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size())), cp_end_s);
   }
-  controller_ = std::make_unique<Controller>(scenario_.input_names, scenario_.output_names, options_.parameters,
-                                             std::move(s.controller), options_.schedule);
-  // The driver refers to the controller: a new one for the restored state, same observers.
-  auto driver = std::make_unique<Driver>(*controller_);
-  driver->add(evaluation_);
-  if (driver_->has_machine()) driver->set_machine(*driver_->machine());
-  driver->set_identification_s(s.identification_s);
-  driver_ = std::move(driver);
+  controller_ = Controller(scenario_.input_names, scenario_.output_names, options_.parameters,
+                           std::move(s.controller), options_.schedule);
+  driver_.set_identification_s(s.identification_s);
   total_s_ = s.total_s;
   source_.seek(static_cast<std::size_t>(s.next_index));
 }
@@ -142,7 +136,7 @@ void Replay::run() { run_until(options_.stop_time_s); }
 
 void Replay::advance(double stop_time_s) {
   const auto start = std::chrono::steady_clock::now();
-  driver_->run(source_, stop_time_s);
+  driver_.run(source_, stop_time_s);
   total_s_ += seconds_since(start);
 }
 
@@ -151,7 +145,7 @@ void Replay::run_until(double stop_time_s) {
   if (ended_) return;
   ended_ = true;
   if (lifecycle_) {
-    lifecycle_->save_snapshot(*controller_, static_cast<std::int64_t>(source_.position()));
+    lifecycle_->save_snapshot(controller_, static_cast<std::int64_t>(source_.position()));
     lifecycle_->end(finished());
   }
   if (nc_) {
@@ -170,8 +164,8 @@ void Replay::run_until(double stop_time_s) {
 }
 
 ReplayReport Replay::report() const {
-  ReplayReport r = evaluation_.report(*controller_, source_.position());
-  r.identification_s = driver_->identification_s();
+  ReplayReport r = evaluation_.report(controller_, source_.position());
+  r.identification_s = driver_.identification_s();
   r.total_s = total_s_;
   return r;
 }

@@ -7,7 +7,6 @@
 
 namespace alc {
 
-
 // Eq. 1: PV = max|y - yhat| / max|y| * 100 [%].
 double peak_value_percent(std::span<const double> measured, std::span<const double> predicted);
 

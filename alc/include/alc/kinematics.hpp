@@ -104,6 +104,8 @@ Compensation compensate(const MachineChain& chain, const AxisPositions& position
 int location_error_field(const std::string& output_name);
 // Sets field 0..6 (as location_error_field) to `value`; other fields are ignored.
 void set_location_error(LocationErrors& errors, int field, double value);
+// Whether some name is one of the seven location errors (then offsets can be derived from outputs).
+bool maps_any_location_error(const std::vector<std::string>& names);
 // The location errors of a vector of outputs named `names` (fields without an output, and
 // non-finite values, stay zero).
 LocationErrors location_errors_of(const std::vector<std::string>& names, const Eigen::VectorXd& values);

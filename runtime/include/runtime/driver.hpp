@@ -47,8 +47,7 @@ class Cycle {
  public:
   enum class Kind { Sample, Probe };
   Cycle(Kind kind, const Sample& sample, const ProbeMeasurement* probe, const ControllerOutput& out,
-        const Controller& controller, Phase phase_before, const CompensationSetup* setup,
-        const std::vector<int>* fields);
+        const Controller& controller, Phase phase_before, const CompensationSetup* setup);
   Kind kind() const { return kind_; }
   const Sample& sample() const { return sample_; }            // the latest sample
   const ProbeMeasurement* probe() const { return probe_; }    // probe cycles only
@@ -69,8 +68,7 @@ class Cycle {
   const ControllerOutput& out_;
   const Controller& controller_;
   Phase phase_before_;
-  const CompensationSetup* setup_;
-  const std::vector<int>* fields_;
+  const CompensationSetup* setup_;       // nullptr: no machine, or no output is a location error
   mutable bool computed_ = false;
   mutable std::optional<kinematics::Compensation> compensation_;
 };
@@ -118,8 +116,7 @@ class Driver {
   Controller& controller_;
   std::vector<Observer*> observers_;
   std::optional<CompensationSetup> setup_;
-  std::vector<int> fields_;        // location error field per output (-1: none)
-  bool maps_any_ = false;
+  bool maps_any_ = false;          // some output is one of the seven location errors
   std::optional<Sample> last_;
   double identification_s_ = 0.0;
 };

@@ -64,9 +64,9 @@ class Replay {
   bool finished() const { return source_.finished(); }
   ReplayReport report() const;
   scenarios::Scenario residuals() const { return evaluation_.residuals(); }
-  const Controller& controller() const { return *controller_; }
+  const Controller& controller() const { return controller_; }
   const Evaluation& evaluation() const { return evaluation_; }
-  Driver& driver() { return *driver_; }
+  Driver& driver() { return driver_; }
   std::optional<storage::RunId> run_id() const;
   const NcCommandObserver* nc() const { return nc_ ? &*nc_ : nullptr; }
   const std::optional<nc::NcOutputSummary>& nc_summary() const { return nc_summary_; }
@@ -80,10 +80,10 @@ class Replay {
   void restore(const storage::ControllerSnapshot& snapshot);
   const scenarios::Scenario& scenario_;
   ReplayOptions options_;
-  std::unique_ptr<Controller> controller_;
+  Controller controller_;                  // restore() assigns the resumed state; driver_ refers to it
   RecordedSource source_;
   Evaluation evaluation_;
-  std::unique_ptr<Driver> driver_;
+  Driver driver_;
   std::unique_ptr<storage::HistoryWriter> writer_;
   std::unique_ptr<RunLifecycle> lifecycle_;
   std::unique_ptr<Observer> recorder_;
