@@ -25,9 +25,22 @@
 #include "nc_test_support.hpp"
 
 using namespace alc::nc;
+using alc::nc::test::g10_offsets;
+using alc::nc::test::on_path;
 using alc::nc::test::read_text;
+using alc::nc::test::require_program;
+using alc::nc::test::Rs274Run;
+using alc::nc::test::var_value;
 using alc::nc::test::write_text;
 using Catch::Matchers::WithinAbs;
+
+namespace {
+// `program` into DIR/program.ngc, then rs274 on it (the simulator tests hold the simulator lock).
+Rs274Run run_rs274(const std::filesystem::path& dir, const std::string& program, const std::string& var_before) {
+  write_text(dir / "program.ngc", program);
+  return alc::nc::test::run_rs274(dir, var_before, false);
+}
+}  // namespace
 
 namespace {
 
@@ -35,67 +48,6 @@ constexpr double kMmPerInch = 25.4;
 // The standalone interpreter saves lengths in the var file in inches with 6 decimals.
 constexpr double kVarFileTolMm = 0.5e-6 * kMmPerInch + 1e-9;  // [mm]
 constexpr double kReadBackTol = 0.5e-4;                       // [mm] or [°] sim read-back vs 4-decimal text
-
-bool on_path(const std::string& program) {
-  return std::system(("command -v " + program + " > /dev/null 2>&1").c_str()) == 0;
-}
-
-std::string require_program(const std::string& program) {
-  if (!on_path(program))
-    FAIL(program << " not found: install the Debian package linuxcnc-uspace (scripts/test.sh does this)");
-  return program;
-}
-
-struct Rs274Run {
-  int exit_code = -1;
-  std::string canon;  // canonical machining commands
-  std::string var;    // the var file after the run
-};
-
-Rs274Run run_rs274(const std::filesystem::path& dir, const std::string& program, const std::string& var_before) {
-  require_program("rs274");
-  write_text(dir / "tool.tbl", "T1 P1 Z0 D0 ;\n");
-  write_text(dir / "params.var", var_before);
-  write_text(dir / "program.ngc", program);
-  std::filesystem::remove(dir / "canon.txt");
-  // Two standalone interpreters at once crash with SIGBUS (exit 135, seen under ctest -j2): they
-  // share LinuxCNC's fixed shared-memory name. flock(1) runs one at a time across test processes.
-  const std::string cmd = "cd '" + dir.string() + "' && flock /tmp/alc_rs274.lock timeout 60 rs274 -g -t tool.tbl -v params.var program.ngc canon.txt" +
-                          " > rs274.log 2>&1";
-  const int status = std::system(cmd.c_str());
-  Rs274Run r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.canon = read_text(dir / "canon.txt");
-  r.var = read_text(dir / "params.var");
-  return r;
-}
-
-// The SET_G5X_OFFSET lines of the G10s. Each "G21 G10 L2 P1 …" line gives USE_LENGTH_UNITS then
-// SET_G5X_OFFSET; the interpreter's own SET_G5X_OFFSET at start-up and at M2 come without it.
-std::vector<std::string> g10_offsets(const std::string& canon) {
-  std::vector<std::string> out;
-  std::istringstream in(canon);
-  std::string line;
-  bool in_program = false;
-  bool after_units = false;
-  while (std::getline(in, line)) {
-    if (line.find("COMMENT(\"ALC thermal compensation") != std::string::npos) in_program = true;
-    const auto at = line.find("SET_G5X_OFFSET(");
-    if (in_program && at != std::string::npos && after_units) out.push_back(line.substr(at));
-    after_units = line.find("USE_LENGTH_UNITS(CANON_UNITS_MM)") != std::string::npos;
-  }
-  return out;
-}
-
-double var_value(const std::string& var, int parameter) {
-  std::istringstream in(var);
-  int p = 0;
-  double v = 0.0;
-  while (in >> p >> v)
-    if (p == parameter) return v;
-  FAIL("parameter " << parameter << " not in the var file");
-  return 0.0;
-}
 
 AxisOffsets offsets(double x, double y, double z, std::optional<double> a, std::optional<double> b, double c,
                     int work_offset = 1) {

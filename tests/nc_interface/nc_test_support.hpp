@@ -1,5 +1,9 @@
 #pragma once
 // Shared by the nc_interface tests: the fixed command set of the reference texts, file helpers.
+#include <catch2/catch.hpp>
+#include <sys/wait.h>
+
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -80,6 +84,73 @@ inline std::vector<NcCommand> undelivered_commands(const std::string& err) {
     if (!line.empty() && line.front() == '{') json += line + "\n";
   std::istringstream lines(json);
   return read_commands_jsonl(lines, "<stderr>");
+}
+
+inline bool on_path(const std::string& program) {
+  return std::system(("command -v " + program + " > /dev/null 2>&1").c_str()) == 0;
+}
+
+inline std::string require_program(const std::string& program) {
+  if (!on_path(program))
+    FAIL(program << " not found: install the Debian package linuxcnc-uspace (scripts/test.sh does this)");
+  return program;
+}
+
+struct Rs274Run {
+  int exit_code = -1;
+  std::string canon;  // canonical machining commands
+  std::string var;    // the var file after the run
+};
+
+// Runs LinuxCNC's standalone interpreter on DIR/program.ngc with DIR/params.var = `var_before`.
+// Two interpreters at once crash with SIGBUS (exit 135, seen under ctest -j2): they share
+// LinuxCNC's fixed shared-memory name, so every run takes /tmp/alc_rs274.lock. A caller outside the
+// simulator tests also waits for their lock first (`lock_simulator`: the simulator shares those
+// names too); a simulator test, which holds that lock itself, must not.
+inline Rs274Run run_rs274(const std::filesystem::path& dir, const std::string& var_before, bool lock_simulator) {
+  require_program("rs274");
+  write_text(dir / "tool.tbl", "T1 P1 Z0 D0 ;\n");
+  write_text(dir / "params.var", var_before);
+  std::filesystem::remove(dir / "canon.txt");
+  const std::string cmd = "cd '" + dir.string() + "' && " +
+                          (lock_simulator ? "flock /tmp/alc_linuxcnc_sim.flock " : "") +
+                          "flock /tmp/alc_rs274.lock timeout 60 rs274 -g -t tool.tbl -v params.var program.ngc "
+                          "canon.txt > rs274.log 2>&1";
+  const int status = std::system(cmd.c_str());
+  Rs274Run r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.canon = read_text(dir / "canon.txt");
+  r.var = read_text(dir / "params.var");
+  return r;
+}
+
+// The SET_G5X_OFFSET lines of the G10s. Each "G21 G10 L2 P1 …" line gives USE_LENGTH_UNITS then
+// SET_G5X_OFFSET; the interpreter's own SET_G5X_OFFSET at start-up and at M2 come without it, and
+// only lines after the program's opening comment count.
+inline std::vector<std::string> g10_offsets(const std::string& canon) {
+  std::vector<std::string> out;
+  std::istringstream in(canon);
+  std::string line;
+  bool in_program = false;
+  bool after_units = false;
+  while (std::getline(in, line)) {
+    if (line.find("COMMENT(\"ALC thermal compensation") != std::string::npos) in_program = true;
+    const auto at = line.find("SET_G5X_OFFSET(");
+    if (in_program && at != std::string::npos && after_units) out.push_back(line.substr(at));
+    after_units = line.find("USE_LENGTH_UNITS(CANON_UNITS_MM)") != std::string::npos;
+  }
+  return out;
+}
+
+// The value of numbered parameter `parameter` in a var file.
+inline double var_value(const std::string& var, int parameter) {
+  std::istringstream in(var);
+  int p = 0;
+  double v = 0.0;
+  while (in >> p >> v)
+    if (p == parameter) return v;
+  FAIL("parameter " << parameter << " not in the var file");
+  return 0.0;
 }
 
 }  // namespace alc::nc::test

@@ -30,54 +30,16 @@ namespace sc = alc::scenarios;
 namespace rt = alc::runtime;
 namespace nc = alc::nc;
 namespace kinematics = alc::kinematics;
+using alc::nc::test::g10_offsets;
 using alc::nc::test::read_text;
+using alc::nc::test::Rs274Run;
+using alc::nc::test::var_value;
 using alc::nc::test::write_text;
 
 namespace {
 
-struct Rs274Run {
-  int exit_code = -1;
-  std::string canon;
-  std::string var;
-};
-
-// As in tests/nc_interface/linuxcnc_test.cpp: two interpreters at once crash with SIGBUS (shared
-// memory of a fixed name), so every run takes /tmp/alc_rs274.lock. The simulator shares those names
-// too, and ctest's RESOURCE_LOCK linuxcnc covers only the nc_interface tests, so this run also waits
-// for the simulator tests' lock (same order as there: simulator lock first, then the rs274 lock).
-Rs274Run run_rs274(const fs::path& dir) {
-  if (std::system("command -v rs274 > /dev/null 2>&1") != 0)
-    FAIL("rs274 not found: install the Debian package linuxcnc-uspace (scripts/test.sh does this)");
-  write_text(dir / "tool.tbl", "T1 P1 Z0 D0 ;\n");
-  write_text(dir / "params.var", "3001 0.0\n");
-  fs::remove(dir / "canon.txt");
-  const std::string cmd = "cd '" + dir.string() +
-                          "' && flock /tmp/alc_linuxcnc_sim.flock flock /tmp/alc_rs274.lock timeout 60 "
-                          "rs274 -g -t tool.tbl -v params.var program.ngc canon.txt > rs274.log 2>&1";
-  const int status = std::system(cmd.c_str());
-  Rs274Run r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.canon = read_text(dir / "canon.txt");
-  r.var = read_text(dir / "params.var");
-  return r;
-}
-
-// SET_G5X_OFFSET lines that follow a G10's USE_LENGTH_UNITS after the program's opening comment (not
-// the interpreter's own at start-up and at M2).
-std::vector<std::string> g10_offsets(const std::string& canon) {
-  std::vector<std::string> out;
-  std::istringstream in(canon);
-  std::string line;
-  bool in_program = false;
-  bool after_units = false;
-  while (std::getline(in, line)) {
-    if (line.find("COMMENT(\"ALC thermal compensation") != std::string::npos) in_program = true;
-    const auto at = line.find("SET_G5X_OFFSET(");
-    if (in_program && at != std::string::npos && after_units) out.push_back(line.substr(at));
-    after_units = line.find("USE_LENGTH_UNITS(CANON_UNITS_MM)") != std::string::npos;
-  }
-  return out;
-}
+// rs274 on DIR/program.ngc (written by the replay), also waiting for the simulator tests' lock.
+Rs274Run run_rs274(const fs::path& dir) { return alc::nc::test::run_rs274(dir, "3001 0.0\n", true); }
 
 std::string expected_g5x(const nc::AxisOffsets& o) {
   return "SET_G5X_OFFSET(1, " + nc::format_nc_number(o.x_mm) + ", " + nc::format_nc_number(o.y_mm) + ", " +
@@ -122,15 +84,6 @@ Rs274Run check_rs274_applies(const fs::path& dir, const std::vector<nc::AxisOffs
   return r;
 }
 
-double var_value(const std::string& var, int parameter) {
-  std::istringstream in(var);
-  int p = 0;
-  double v = 0.0;
-  while (in >> p >> v)
-    if (p == parameter) return v;
-  FAIL("parameter " << parameter << " not in the var file");
-  return 0.0;
-}
 
 // Runs after the NC observer in every cycle and keeps, for each axis_offsets command it emitted,
 // the prediction of the controller cycle that emitted it.
