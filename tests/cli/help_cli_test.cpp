@@ -73,7 +73,7 @@ TEST_CASE("alc simulate --help describes its options") {
   check_help("simulate --help", {"--case", "--out", "--truth", "--seed", "--list", "--summary"});
 }
 
-TEST_CASE("alc bench --help describes its options") { check_help("bench --help", {"--case", "--repeat"}); }
+TEST_CASE("alc bench --help describes its options") { check_help("bench --help", {"--case", "--repeat", "--long"}); }
 
 TEST_CASE("alc db --help lists its subcommands, and each subcommand its options") {
   check_help("db --help", {"info", "check", "export", "bench", "path"});
