@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <regex>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "common/log.hpp"
 
@@ -58,6 +58,26 @@ TEST_CASE("log: level names parse to spdlog levels, anything else is refused") {
   CHECK_FALSE(parse_level("info ").has_value());
 }
 
+namespace {
+// Whether `text` holds a line "[YYYY-MM-DD HH:MM:SS.mmm" + `rest` (no std::regex: GCC 12 warns
+// -Wmaybe-uninitialized inside <regex> in the sanitizer build).
+bool has_timestamped_line(const std::string& text, const std::string& rest) {
+  constexpr std::string_view kShape = "[dddd-dd-dd dd:dd:dd.ddd";
+  for (auto at = text.find(rest); at != std::string::npos; at = text.find(rest, at + 1)) {
+    if (at < kShape.size()) continue;
+    const std::size_t start = at - kShape.size();
+    if (start > 0 && text[start - 1] != '\n') continue;
+    bool ok = true;
+    for (std::size_t i = 0; i < kShape.size(); ++i) {
+      const char c = text[start + i];
+      ok = ok && (kShape[i] == 'd' ? c >= '0' && c <= '9' : c == kShape[i]);
+    }
+    if (ok) return true;
+  }
+  return false;
+}
+}  // namespace
+
 TEST_CASE("log: a file sink gets time, level, component and message, and drops lines below the level") {
   const ResetLog reset;
   // A logger that exists before configure() follows the new configuration too.
@@ -70,8 +90,7 @@ TEST_CASE("log: a file sink gets time, level, component and message, and drops l
   alc::log::get("storage")->debug("not at info");
   early->warn("late {}", 7);
   const std::string text = slurp(file);
-  const std::regex line(R"(\[\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3}\] \[info\] \[storage\] opened history h\.sqlite\n)");
-  CHECK(std::regex_search(text, line));
+  CHECK(has_timestamped_line(text, "] [info] [storage] opened history h.sqlite\n"));
   CHECK(text.find("[runtime] late 7") != std::string::npos);
   CHECK(text.find("not at info") == std::string::npos);
 
