@@ -17,7 +17,9 @@
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/machine_config.hpp"
 #include "nc_interface/recorder.hpp"
+#include "runtime/parameter_options.hpp"
 #include "runtime/replay.hpp"
+#include "runtime/report_json.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/scenario_csv.hpp"
 
@@ -25,32 +27,17 @@ namespace alc::cli {
 
 namespace {
 
-// Parses a Tab. 1 value: a positive number or "inf", times `scale`; names the option on error.
-double parse_tab1(const std::string& option, const std::string& text, double scale) {
-  if (text == "inf" || text == "Inf" || text == "INF") return kInf;
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v) || v < 0.0)
-    throw UsageError(option + ": '" + text + "' is not a non-negative number or 'inf'");
-  return v * scale;
-}
-
 struct ReplayArgs {
   std::string file;
   std::string case_name;
   std::uint64_t seed = 0;
   bool seed_given = false;
   std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
-  double acl_lin = 5.0, acl_ang = 15.0;
+  std::string acl_lin = "5", acl_ang = "15";
   std::string window = common::shortest_text(AlcParameters{}.learning_window_s / 3600.0);  // [h] 336 = 14 d
   std::string half_life = "inf", method = "fixed-poles";
   std::string since;           // [h] of scenario time: learn only from probes at or after it; "" = all
-  int max_order = IdentificationOptions{}.max_order;
+  std::string max_order = std::to_string(IdentificationOptions{}.max_order);
   bool json = false;
   bool no_refit = false;
   bool no_confirm = false;
@@ -65,55 +52,21 @@ struct ReplayArgs {
   std::string machine;         // machine config (TOML), "" = built-in defaults
 };
 
+// The parameters of the options given (one parser for replay's options and a study grid's keys).
 AlcParameters parameters_from(const ReplayArgs& a) {
-  AlcParameters p;
-  p.cp_duration_s = parse_tab1("--cp", a.cp, 3600.0);
-  p.cp_interval_s = parse_tab1("--cp-interval", a.cp_interval, 60.0);
-  p.post_cp_interval_s = parse_tab1("--interval", a.interval, 3600.0);
-  p.ng_interval_s = parse_tab1("--ng-interval", a.ng_interval, 60.0);
-  p.ng_measurements = parse_tab1("--ng-meas", a.ng_meas, 1.0);
-  p.update_interval_s = parse_tab1("--update", a.update, 3600.0);
-  p.acl_linear_um = a.acl_lin;
-  p.acl_angular_um_per_m = a.acl_ang;
-  p.refit_on_probe = !a.no_refit;
-  p.confirm_breach = !a.no_refit && !a.no_confirm;
-  p.structure_refresh = parse_tab1("--structure-refresh", a.structure_refresh, 1.0);
-  p.learning_window_s = parse_tab1("--window", a.window, 3600.0);
-  if (!a.since.empty()) {
-    p.learning_since_s = parse_tab1("--since", a.since, 3600.0);
-    if (!std::isfinite(p.learning_since_s)) throw UsageError("--since: '" + a.since + "' is not a finite time [h]");
+  runtime::OptionTexts o = {{"cp", a.cp},           {"cp-interval", a.cp_interval}, {"interval", a.interval},
+                            {"ng-interval", a.ng_interval}, {"ng-meas", a.ng_meas},  {"update", a.update},
+                            {"acl-lin", a.acl_lin}, {"acl-ang", a.acl_ang},         {"window", a.window},
+                            {"half-life", a.half_life},     {"method", a.method},    {"max-order", a.max_order},
+                            {"structure-refresh", a.structure_refresh},
+                            {"no-refit", a.no_refit ? "true" : "false"},
+                            {"no-confirm", a.no_confirm ? "true" : "false"}};
+  if (!a.since.empty()) o.emplace_back("since", a.since);
+  try {
+    return runtime::parameters_of(o);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--") + e.what());
   }
-  p.identification.forgetting_half_life_s = parse_tab1("--half-life", a.half_life, 3600.0);
-  p.identification.max_order = a.max_order;
-  if (a.method == "fixed-poles")
-    p.identification.method = IdentificationMethod::FixedPoles;
-  else if (a.method == "output-error")
-    p.identification.method = IdentificationMethod::OutputError;
-  else
-    throw UsageError("--method: '" + a.method + "' is not one of fixed-poles, output-error");
-  if (const std::string why = p.validate(); !why.empty()) throw UsageError("invalid parameters: " + why);
-  return p;
-}
-
-nlohmann::json outputs_json(const std::vector<runtime::OutputIndicators>& outs) {
-  nlohmann::json j = nlohmann::json::object();
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  for (const auto& o : outs)
-    j[o.name] = {{"PV", num(o.PV)}, {"RMSE", num(o.RMSE)}, {"P99", num(o.P99)}, {"SMAPE", num(o.SMAPE)},
-                 {"P99_uncompensated", num(o.P99_uncompensated)}, {"measurements", o.measurements}};
-  return j;
-}
-
-nlohmann::json report_json(const runtime::ReplayReport& r) {
-  return {{"outputs", outputs_json(r.outputs)},
-          {"Pd", r.Pd},
-          {"M", r.M},
-          {"ng_phases", r.ng_phases},
-          {"updates", r.updates},
-          {"rejected_fits", r.rejected_fits},
-          {"cp_end_h", std::isfinite(r.cp_end_s) ? nlohmann::json(r.cp_end_s / 3600.0) : nlohmann::json(nullptr)},
-          {"duration_h", r.duration_s / 3600.0},
-          {"baseline", {{"outputs", outputs_json(r.baseline)}}}};
 }
 
 std::string fmt(double v, int precision = 2) {
@@ -289,10 +242,10 @@ void run_replay(const ReplayArgs& a) {
   if (reports.empty()) return;
   if (a.json) {
     if (reports.size() == 1) {
-      std::cout << report_json(reports.front().second).dump(2) << "\n";
+      std::cout << runtime::report_json(reports.front().second).dump(2) << "\n";
     } else {
       nlohmann::json j = nlohmann::json::object();
-      for (const auto& [name, r] : reports) j[name] = report_json(r);
+      for (const auto& [name, r] : reports) j[name] = runtime::report_json(r);
       std::cout << j.dump(2) << "\n";
     }
     return;

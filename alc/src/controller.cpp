@@ -148,6 +148,33 @@ void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std
   set_interval(schedule_->interval(to), time_s, out, interval_reason);
 }
 
+Eigen::VectorXd Controller::thermal_errors(const ProbeMeasurement& probe) const {
+  return probe.compensation.size() == probe.measured.size() && probe.compensation.size() != 0
+             ? Eigen::VectorXd(probe.measured + probe.compensation)
+             : probe.measured;
+}
+
+Eigen::VectorXd Controller::residuals(const Eigen::VectorXd& errors) const {
+  return errors - state_.prediction;
+}
+
+bool Controller::breaches_acl(const ProbeMeasurement& probe) const {
+  const auto n = static_cast<Eigen::Index>(output_names_.size());
+  if (probe.measured.size() != n || state_.prediction.size() != n) return false;
+  const Eigen::VectorXd r = residuals(thermal_errors(probe));
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!std::isnan(r(i)) && std::abs(r(i)) > acl_of(static_cast<std::size_t>(i))) return true;
+  return false;
+}
+
+Controller Controller::fork(AlcParameters params, SchedulePtr schedule) const {
+  if (const std::string why = params.validate(); !why.empty()) throw std::invalid_argument(why);
+  Controller c = *this;
+  c.params_ = std::move(params);
+  c.schedule_ = schedule ? std::move(schedule) : std::make_shared<const probing::PaperSchedule>(c.params_.schedule());
+  return c;
+}
+
 ControllerOutput Controller::rejected(std::string reason) const {
   ControllerOutput out;
   out.accepted = false;
@@ -300,16 +327,15 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   ProbeRecord record;
   record.time_s = t;
   record.sample_index = state_.history.time_s.size() - 1;
-  record.errors = probe.compensation.size() == n ? Eigen::VectorXd(probe.measured + probe.compensation) : probe.measured;
+  record.errors = thermal_errors(probe);
   state_.probes.push_back(record);
   ++state_.probe_cycles;
 
   // Residual against the prediction that was active when the probe ran.
   std::vector<std::size_t> breaches;
-  Eigen::VectorXd residuals = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+  const Eigen::VectorXd residuals = this->residuals(record.errors);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const double residual = record.errors[i] - state_.prediction[i];
-    residuals(i) = residual;
+    const double residual = residuals(i);
     if (std::isnan(residual)) continue;
     const auto k = static_cast<std::size_t>(i);
     if (std::abs(residual) > acl_of(k)) {

@@ -144,6 +144,14 @@ class Controller {
   // Time passes without data: phase ends and periodic updates that are due happen here.
   ControllerOutput on_tick(double time_s);
 
+  // A copy of this controller (state and derived caches) that continues with other parameters: a
+  // parameter study runs the sets that agree so far as one controller and forks it where their
+  // parameters first matter (docs/study.md). The caller forks before any decision that the new
+  // parameters would have taken otherwise. Throws std::invalid_argument if `params` are invalid.
+  Controller fork(AlcParameters params, SchedulePtr schedule = nullptr) const;
+  // Whether on_probe(probe) would find a residual beyond its ACL (the same arithmetic; no change).
+  bool breaches_acl(const ProbeMeasurement& probe) const;
+
   const ControllerState& state() const { return state_; }
   const AlcParameters& parameters() const { return params_; }
   const probing::SchedulePolicy& schedule() const { return *schedule_; }
@@ -163,6 +171,10 @@ class Controller {
   probing::ScheduleContext schedule_context(double time_s) const;
   double next_due(double time_s) const;
   ControllerOutput rejected(std::string reason) const;
+  // The thermal error a probe saw (measured + compensation in force) and its residuals against the
+  // current prediction (NaN where not measured).
+  Eigen::VectorXd thermal_errors(const ProbeMeasurement& probe) const;
+  Eigen::VectorXd residuals(const Eigen::VectorXd& errors) const;
   // Drops samples and probes that no identification can use any more (bounded memory).
   void trim();
   // keep_structure: refit the parameters of the current model's structure (refit()) instead of

@@ -110,6 +110,8 @@ class Driver {
   double identification_s() const { return identification_s_; }
   void set_identification_s(double s) { identification_s_ = s; }
   const std::optional<Sample>& last_sample() const { return last_; }
+  // A driver of a forked controller continues after the sample its parent took last.
+  void continue_after(const Sample& sample) { last_ = sample; }
 
  private:
   void notify(Cycle::Kind kind, const ProbeMeasurement* probe, const ControllerOutput& out, Phase before);

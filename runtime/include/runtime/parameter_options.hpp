@@ -1,0 +1,51 @@
+#pragma once
+// The controller's parameters as named options with units: one table for `alc replay`'s options
+// (--cp 6.5) and a study grid's keys (cp = [6.5, 12]), one strict parser for their values.
+//
+// Each option also says when it first matters in a run (its Stage): a parameter study runs the sets
+// that agree on the earlier stages as one controller and forks it where they first differ
+// (docs/study.md). The stages follow the controller (alc/src/controller.cpp): the Post-CP options are
+// consulted only once CP ends, the No-Good options only at the first ACL breach after CP.
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "alc/controller.hpp"
+
+namespace alc::runtime {
+
+enum class Stage {
+  Start,   // from the first sample (CP length, CP interval, learning options)
+  CpEnd,   // from the end of CP (Post-CP interval, ACL, periodic update, refit on probes)
+  Breach,  // from the first ACL breach after CP (NG interval, NG measurements, breach confirmation)
+};
+
+struct ParameterOption {
+  std::string_view name;     // "cp": --cp on the command line, a key of a study grid
+  std::string_view unit;     // "h", "min", "µm", "-"
+  std::string_view values;   // what it takes, for messages: "a number >= 0 or inf", "true or false"
+  std::string_view help;
+  Stage stage = Stage::Start;
+};
+
+// Every option, in the order of `alc replay --help`.
+const std::vector<ParameterOption>& parameter_options();
+const ParameterOption* find_parameter_option(std::string_view name);
+
+// Option texts (name, value) in the order given; an option given twice: the last wins.
+using OptionTexts = std::vector<std::pair<std::string, std::string>>;
+
+// Sets option `name` of `p` from `text` (numbers are decimal: no sign, hex, nan; "inf" where the
+// option takes it). Throws std::invalid_argument naming the option and the value.
+void set_parameter(AlcParameters& p, std::string_view name, std::string_view text);
+
+// The parameters of the defaults with `options` applied, validated (p.validate()). Throws
+// std::invalid_argument naming the option and the value, or the violated constraint.
+AlcParameters parameters_of(const OptionTexts& options);
+
+// Strict decimal number: digits, an optional fraction and exponent, nothing else ("6.5", "1e3");
+// "inf" when allow_inf. Throws std::invalid_argument "<what>: '<text>' is not ...".
+double parse_number(std::string_view what, std::string_view text, bool allow_inf);
+
+}  // namespace alc::runtime

@@ -1,0 +1,23 @@
+#pragma once
+// The indicators of a replay as JSON: what `alc replay --json` prints per case and what a study
+// stores per row (so a study row and a replay can be compared byte for byte).
+#include <nlohmann/json.hpp>
+
+#include "runtime/evaluation.hpp"
+
+namespace alc::runtime {
+
+// Per output PV, RMSE, P99, SMAPE, P99_uncompensated, measurements; Pd, M, NG phases, updates,
+// rejected fits, CP end, duration and the baseline's outputs. Non-finite numbers are null.
+nlohmann::json report_json(const ReplayReport& report);
+
+}  // namespace alc::runtime
+
+namespace alc::runtime {
+
+// The report back from report_json() (what a study file stores); null numbers come back as NaN.
+// The wall times (identification_s, total_s) are not stored and come back 0. Throws
+// nlohmann::json::exception on a document of another shape.
+ReplayReport report_from_json(const nlohmann::json& j);
+
+}  // namespace alc::runtime

@@ -1,0 +1,69 @@
+#include "runtime/report_json.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace alc::runtime {
+
+namespace {
+
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+double number_of(const nlohmann::json& j) {
+  return j.is_null() ? std::numeric_limits<double>::quiet_NaN() : j.get<double>();
+}
+
+nlohmann::json outputs_json(const std::vector<OutputIndicators>& outs) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& o : outs)
+    j[o.name] = {{"PV", number(o.PV)}, {"RMSE", number(o.RMSE)}, {"P99", number(o.P99)}, {"SMAPE", number(o.SMAPE)},
+                 {"P99_uncompensated", number(o.P99_uncompensated)}, {"measurements", o.measurements}};
+  return j;
+}
+
+std::vector<OutputIndicators> outputs_of(const nlohmann::json& j) {
+  std::vector<OutputIndicators> outs;
+  for (const auto& [name, o] : j.items()) {
+    OutputIndicators r;
+    r.name = name;
+    r.kind = error_kind(name);
+    r.PV = number_of(o.at("PV"));
+    r.RMSE = number_of(o.at("RMSE"));
+    r.P99 = number_of(o.at("P99"));
+    r.SMAPE = number_of(o.at("SMAPE"));
+    r.P99_uncompensated = number_of(o.at("P99_uncompensated"));
+    r.measurements = o.at("measurements").get<int>();
+    outs.push_back(std::move(r));
+  }
+  return outs;
+}
+
+}  // namespace
+
+nlohmann::json report_json(const ReplayReport& r) {
+  return {{"outputs", outputs_json(r.outputs)},
+          {"Pd", r.Pd},
+          {"M", r.M},
+          {"ng_phases", r.ng_phases},
+          {"updates", r.updates},
+          {"rejected_fits", r.rejected_fits},
+          {"cp_end_h", std::isfinite(r.cp_end_s) ? nlohmann::json(r.cp_end_s / 3600.0) : nlohmann::json(nullptr)},
+          {"duration_h", r.duration_s / 3600.0},
+          {"baseline", {{"outputs", outputs_json(r.baseline)}}}};
+}
+
+ReplayReport report_from_json(const nlohmann::json& j) {
+  ReplayReport r;
+  r.outputs = outputs_of(j.at("outputs"));
+  r.baseline = outputs_of(j.at("baseline").at("outputs"));
+  r.Pd = number_of(j.at("Pd"));
+  r.M = j.at("M").get<int>();
+  r.ng_phases = j.at("ng_phases").get<int>();
+  r.updates = j.at("updates").get<int>();
+  r.rejected_fits = j.at("rejected_fits").get<int>();
+  r.cp_end_s = j.at("cp_end_h").is_null() ? kInf : j.at("cp_end_h").get<double>() * 3600.0;
+  r.duration_s = j.at("duration_h").get<double>() * 3600.0;
+  return r;
+}
+
+}  // namespace alc::runtime
