@@ -29,15 +29,6 @@ double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.
-double proc_status_kb(const std::string& field) {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind(field + ":", 0) == 0) return std::atof(line.c_str() + field.size() + 1);
-  return 0.0;
-}
-
 // A long simulated run (case A stretched to `days`) recorded into a fresh history, as a supervisor
 // records one sample a minute: at each checkpoint the process's peak and current RSS, the time per
 // sample over the day before it, the samples the controller keeps, the size of a snapshot and of the
@@ -199,6 +190,14 @@ void add_bench_command(CLI::App& app) {
       ->type_name("DAYS")
       ->check(CLI::Range(1.0, 3650.0));
   cmd->callback([args] { run_bench(*args); });
+}
+
+double proc_status_kb(const std::string& field) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(field + ":", 0) == 0) return std::atof(line.c_str() + field.size() + 1);
+  return 0.0;
 }
 
 }  // namespace alc::cli

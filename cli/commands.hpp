@@ -14,6 +14,18 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A command that ends with an exit status of its own (e.g. 130 after SIGINT), its message on stderr.
+struct ExitStatus : std::runtime_error {
+  ExitStatus(int status, const std::string& message) : std::runtime_error(message), code(status) {}
+  int code;
+};
+
+// [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.
+double proc_status_kb(const std::string& field);
+
+// alc study: parameter studies over a grid of controller parameters (cli/cmd_study.cpp).
+void add_study_command(CLI::App& app);
+
 // alc nc: NC commands (JSON lines) to NC code (cli/cmd_nc.cpp).
 void add_nc_command(CLI::App& app);
 

@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   alc::cli::add_simulate_command(app);
   alc::cli::add_replay_command(app);
   alc::cli::add_bench_command(app);
+  alc::cli::add_study_command(app);
   alc::cli::add_db_command(app);
   alc::cli::add_nc_command(app);
 
@@ -51,6 +52,9 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     if (code == 0) return 0;
     return dynamic_cast<const CLI::RuntimeError*>(&e) != nullptr ? 1 : 2;
+  } catch (const alc::cli::ExitStatus& e) {
+    std::cerr << "alc: " << e.what() << "\n";
+    return e.code;
   } catch (const alc::cli::UsageError& e) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return 2;

@@ -167,9 +167,13 @@ bool Controller::breaches_acl(const ProbeMeasurement& probe) const {
   return false;
 }
 
-Controller Controller::fork(AlcParameters params, SchedulePtr schedule) const {
+Controller Controller::fork(AlcParameters params, SchedulePtr schedule) const& {
+  return Controller(*this).fork(std::move(params), std::move(schedule));
+}
+
+Controller Controller::fork(AlcParameters params, SchedulePtr schedule) && {
   if (const std::string why = params.validate(); !why.empty()) throw std::invalid_argument(why);
-  Controller c = *this;
+  Controller c = std::move(*this);
   c.params_ = std::move(params);
   c.schedule_ = schedule ? std::move(schedule) : std::make_shared<const probing::PaperSchedule>(c.params_.schedule());
   return c;

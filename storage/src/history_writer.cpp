@@ -125,40 +125,6 @@ struct HistoryWriter::Impl {
               std::to_string(want) + " channels");
   }
 
-  void migrate(int version_found) {
-    const std::string mode = db->query_text("PRAGMA journal_mode = WAL");
-    if (mode != "wal")
-      throw StorageError(StorageErrorKind::Io, file, "cannot switch to the WAL journal (journal_mode is '" + mode + "')");
-    db->exec(options.durability == Durability::Power ? "PRAGMA synchronous = FULL" : "PRAGMA synchronous = NORMAL");
-    db->exec("PRAGMA foreign_keys = ON");
-    if (options.max_page_count > 0) db->exec("PRAGMA max_page_count = " + std::to_string(options.max_page_count));
-    db->exec("BEGIN IMMEDIATE");
-    try {
-      // Read again under the write lock: another process may have created the schema meanwhile.
-      const bool ours = db->query_int("PRAGMA application_id") == kApplicationId;
-      const int version = ours ? static_cast<int>(db->query_int("PRAGMA user_version")) : 0;
-      if (!ours && version_found != 0)
-        throw StorageError(StorageErrorKind::ForeignDatabase, file, "application_id changed while opening");
-      if (version > kSchemaVersion)
-        throw StorageError(StorageErrorKind::NewerSchema, file,
-                           "schema version " + std::to_string(version) + " is newer than this alc");
-      for (int v = version + 1; v <= kSchemaVersion; ++v) db->exec(migration_sql(v));
-      if (version < kSchemaVersion) {
-        db->exec("PRAGMA application_id = " + std::to_string(kApplicationId));
-        db->exec("PRAGMA user_version = " + std::to_string(kSchemaVersion));
-      }
-      db->exec("COMMIT");
-      if (version == 0)
-        alc::log::get("storage")->info("history {}: created schema version {}", file.string(), kSchemaVersion);
-      else if (version < kSchemaVersion)
-        alc::log::get("storage")->info("history {}: migrated schema version {} to {}", file.string(), version,
-                                       kSchemaVersion);
-    } catch (...) {
-      sqlite3_exec(db->handle(), "ROLLBACK", nullptr, nullptr, nullptr);
-      throw;
-    }
-  }
-
   void prepare() {
     insert_sample.emplace(*db, "INSERT INTO input_samples (run_id, sample_index, time_s, values_f64) VALUES (?1, ?2, ?3, ?4)");
     insert_probe.emplace(*db,
@@ -184,15 +150,53 @@ struct HistoryWriter::Impl {
   }
 };
 
+namespace detail {
+
+std::unique_ptr<Database> open_for_writing(const std::filesystem::path& file, const WriterOptions& options) {
+  int version_found = 0;
+  auto db = open_database(file, {OpenMode::Write, options.busy_timeout_ms, options.create_directories}, version_found);
+  const std::string mode = db->query_text("PRAGMA journal_mode = WAL");
+  if (mode != "wal")
+    throw StorageError(StorageErrorKind::Io, file, "cannot switch to the WAL journal (journal_mode is '" + mode + "')");
+  db->exec(options.durability == Durability::Power ? "PRAGMA synchronous = FULL" : "PRAGMA synchronous = NORMAL");
+  db->exec("PRAGMA foreign_keys = ON");
+  if (options.max_page_count > 0) db->exec("PRAGMA max_page_count = " + std::to_string(options.max_page_count));
+  db->exec("BEGIN IMMEDIATE");
+  try {
+    // Read again under the write lock: another process may have created the schema meanwhile.
+    const bool ours = db->query_int("PRAGMA application_id") == kApplicationId;
+    const int version = ours ? static_cast<int>(db->query_int("PRAGMA user_version")) : 0;
+    if (!ours && version_found != 0)
+      throw StorageError(StorageErrorKind::ForeignDatabase, file, "application_id changed while opening");
+    if (version > kSchemaVersion)
+      throw StorageError(StorageErrorKind::NewerSchema, file,
+                         "schema version " + std::to_string(version) + " is newer than this alc");
+    for (int v = version + 1; v <= kSchemaVersion; ++v) db->exec(migration_sql(v));
+    if (version < kSchemaVersion) {
+      db->exec("PRAGMA application_id = " + std::to_string(kApplicationId));
+      db->exec("PRAGMA user_version = " + std::to_string(kSchemaVersion));
+    }
+    db->exec("COMMIT");
+    if (version == 0)
+      alc::log::get("storage")->info("history {}: created schema version {}", file.string(), kSchemaVersion);
+    else if (version < kSchemaVersion)
+      alc::log::get("storage")->info("history {}: migrated schema version {} to {}", file.string(), version,
+                                     kSchemaVersion);
+  } catch (...) {
+    sqlite3_exec(db->handle(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  return db;
+}
+
+}  // namespace detail
+
 HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->options = options;
   impl_->file = path;
   if (const std::string problem = options.validate(); !problem.empty())
     throw StorageError(StorageErrorKind::InvalidArgument, path, "writer options: " + problem);
-  int version = 0;
-  impl_->db = detail::open_database(path, {detail::OpenMode::Write, options.busy_timeout_ms, options.create_directories},
-                                    version);
-  impl_->migrate(version);
+  impl_->db = detail::open_for_writing(path, options);
   impl_->prepare();
   alc::log::get("storage")->info("opened history {} for writing", path.string());
 }

@@ -122,6 +122,32 @@ ALTER TABLE nc_commands ADD COLUMN delivered INTEGER;
 ALTER TABLE nc_commands ADD COLUMN delivery_message TEXT NOT NULL DEFAULT '';
 )sql";
 
+// Version 4: parameter studies (alc study): the study (grid, cases, program version, shard) and one
+// row per (parameter set, case) with the indicators as alc replay --json gives them.
+constexpr std::string_view kSchemaV4 = R"sql(
+CREATE TABLE studies (
+  study_id          INTEGER PRIMARY KEY,
+  grid_json         TEXT NOT NULL,
+  cases_json        TEXT NOT NULL,
+  software_version  TEXT NOT NULL,
+  shard             TEXT NOT NULL,
+  set_count         INTEGER NOT NULL,
+  created_unix_s    REAL NOT NULL
+);
+CREATE TABLE study_rows (
+  study_id         INTEGER NOT NULL REFERENCES studies (study_id),
+  set_index        INTEGER NOT NULL,
+  case_index       INTEGER NOT NULL,
+  status           TEXT NOT NULL CHECK (status IN ('ok', 'error')),
+  error            TEXT NOT NULL,
+  pd               REAL,
+  p99_linear       REAL,
+  p99_angular      REAL,
+  report_json      TEXT,
+  PRIMARY KEY (study_id, set_index, case_index)
+) WITHOUT ROWID;
+)sql";
+
 }  // namespace
 
 std::string_view migration_sql(int to_version) {
@@ -129,6 +155,7 @@ std::string_view migration_sql(int to_version) {
     case 1: return kSchemaV1;
     case 2: return kSchemaV2;
     case 3: return kSchemaV3;
+    case 4: return kSchemaV4;
     default: return {};
   }
 }

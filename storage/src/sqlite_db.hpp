@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "storage/history_writer.hpp"
 #include "storage/storage_error.hpp"
 
 namespace alc::storage::detail {
@@ -99,6 +100,10 @@ HeaderFacts inspect_header(const std::filesystem::path& file);
 // Returns the connection and the schema version found (0 = an empty database, Write mode only).
 std::unique_ptr<Database> open_database(const std::filesystem::path& file, const OpenOptions& options,
                                         int& version_found);
+
+// open_database() for writing, then WAL, synchronous per options.durability, foreign keys, the page
+// cap, and the migrations to kSchemaVersion under the write lock (defined in history_writer.cpp).
+std::unique_ptr<Database> open_for_writing(const std::filesystem::path& file, const WriterOptions& options);
 
 // Vectors of doubles as little-endian IEEE-754 bytes (8 per value), exact.
 std::string encode_f64(const std::vector<double>& values);

@@ -148,7 +148,8 @@ class Controller {
   // parameter study runs the sets that agree so far as one controller and forks it where their
   // parameters first matter (docs/study.md). The caller forks before any decision that the new
   // parameters would have taken otherwise. Throws std::invalid_argument if `params` are invalid.
-  Controller fork(AlcParameters params, SchedulePtr schedule = nullptr) const;
+  Controller fork(AlcParameters params, SchedulePtr schedule = nullptr) const&;
+  Controller fork(AlcParameters params, SchedulePtr schedule = nullptr) &&;  // moves the state instead
   // Whether on_probe(probe) would find a residual beyond its ACL (the same arithmetic; no change).
   bool breaches_acl(const ProbeMeasurement& probe) const;
 

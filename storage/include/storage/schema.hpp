@@ -9,7 +9,7 @@ namespace alc::storage {
 inline constexpr std::int32_t kApplicationId = 0x414C4348;
 // PRAGMA user_version written by this build. Older versions are migrated forward on open by a
 // writer; newer ones are refused.
-inline constexpr int kSchemaVersion = 3;
+inline constexpr int kSchemaVersion = 4;
 
 // $XDG_DATA_HOME/alc/history.sqlite, else $HOME/.local/share/alc/history.sqlite, else
 // ./alc-history.sqlite (no HOME: a service account or a container).

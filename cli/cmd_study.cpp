@@ -1,0 +1,429 @@
+// alc study: a parameter study over a grid of controller parameters (docs/study.md); merge of shards;
+// report of a study file.
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <random>
+#include <thread>
+
+#include "commands.hpp"
+#include "common/atomic_file.hpp"
+#include "runtime/parameter_options.hpp"
+#include "runtime/replay.hpp"
+#include "runtime/report_json.hpp"
+#include "scenarios/load_cases.hpp"
+#include "scenarios/scenario_csv.hpp"
+#include "storage/storage_error.hpp"
+#include "study/analysis.hpp"
+
+namespace alc::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_signal{0};
+void on_signal(int sig) {
+  g_signal = sig;
+  g_stop = true;
+}
+
+struct StudyArgs {
+  std::string grid;
+  std::string case_name;
+  std::vector<std::string> files;
+  int jobs = 0;                 // 0: every core
+  std::string db, csv;
+  bool json = false;
+  std::string shard;            // "I/N"
+  bool resume = false;
+  bool bench = false;
+  int bench_sample = 200;
+  std::uint64_t bench_seed = 1;
+  bool quiet = false;
+};
+
+struct MergeArgs {
+  std::string out;
+  std::vector<std::string> shards;
+};
+
+struct ReportArgs {
+  std::string file;
+  bool json = false;
+  std::string csv;
+  double limit = 5.0;
+};
+
+std::string version() { return std::string("alc ") + ALC_VERSION; }
+
+// "I/N" with 1 <= I <= N, decimal digits only.
+std::pair<int, int> parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  const auto digits = [](const std::string& t) {
+    return !t.empty() && t.size() < 7 && t.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (slash != std::string::npos) {
+    const std::string i = text.substr(0, slash), n = text.substr(slash + 1);
+    if (digits(i) && digits(n)) {
+      const int a = std::stoi(i), b = std::stoi(n);
+      if (a >= 1 && a <= b) return {a, b};
+    }
+  }
+  throw UsageError("--shard: '" + text + "' is not I/N with 1 <= I <= N (e.g. 3/8)");
+}
+
+std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
+  if (a.case_name.empty() == a.files.empty()) throw UsageError("give --case or scenario CSV files (not both)");
+  std::vector<study::StudyCase> cases;
+  if (!a.case_name.empty()) {
+    for (const std::string& name : load_case_names(a.case_name)) {
+      auto sim = scenarios::simulate_case(name, std::nullopt);
+      cases.push_back({name, "case " + name, std::move(sim.scenario), {}});
+    }
+  } else {
+    for (const std::string& f : a.files) {
+      std::error_code ec;
+      if (fs::is_directory(f, ec)) throw UsageError(f + ": is a directory, not a scenario CSV");
+      cases.push_back({f, "file " + f, scenarios::read_scenario_csv(f), {}});
+    }
+  }
+  for (auto& c : cases) c.content_hash = study::content_hash(c.scenario);
+  return cases;
+}
+
+// Progress on stderr: a bar on a terminal, a plain line every few seconds otherwise.
+class Progress {
+ public:
+  Progress(std::size_t total, std::size_t reused, bool quiet)
+      : total_(total), done_(reused), reused_(reused), quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0),
+        start_(std::chrono::steady_clock::now()), last_(start_) {}
+  void add(std::size_t rows) {
+    done_ += rows;
+    const auto now = std::chrono::steady_clock::now();
+    const double since = std::chrono::duration<double>(now - last_).count();
+    if (quiet_ || (tty_ ? since < 0.2 : since < 5.0)) return;
+    last_ = now;
+    draw(false);
+  }
+  void finish() {
+    if (!quiet_ && tty_) draw(true);
+  }
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+
+ private:
+  void draw(bool last) {
+    const double t = elapsed();
+    const double rate = t > 0 ? static_cast<double>(done_ - reused_) / t : 0.0;
+    const double eta = rate > 0 ? static_cast<double>(total_ - done_) / rate : 0.0;
+    char line[160];
+    if (tty_) {
+      const int width = 30;
+      const int filled = total_ ? static_cast<int>(width * static_cast<double>(done_) / static_cast<double>(total_)) : width;
+      std::string bar(static_cast<std::size_t>(filled), '#');
+      bar.resize(width, '.');
+      std::snprintf(line, sizeof line, "\r[%s] %zu/%zu runs  %.0f runs/s  ETA %.0f s ", bar.c_str(), done_, total_,
+                    rate, eta);
+      std::cerr << line << (last ? "\n" : "") << std::flush;
+    } else {
+      std::snprintf(line, sizeof line, "study: %zu/%zu runs, %.0f runs/s, ETA %.0f s\n", done_, total_, rate, eta);
+      std::cerr << line << std::flush;
+    }
+  }
+  std::size_t total_, done_, reused_;
+  bool quiet_, tty_;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+std::vector<storage::StudyRowRecord> sorted(std::vector<storage::StudyRowRecord> rows) {
+  std::sort(rows.begin(), rows.end(), [](const auto& x, const auto& y) {
+    return std::tie(x.set_index, x.case_index) < std::tie(y.set_index, y.case_index);
+  });
+  return rows;
+}
+
+void write_csv(const std::string& file, const study::StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows) {
+  io::write_file_atomically(file, [&](std::ostream& os) { study::write_rows_csv(os, info, rows); });
+}
+
+void print_result(const study::StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows, bool json,
+                  double limit) {
+  const study::Analysis a = study::analyse(info, rows, limit);
+  if (json) std::cout << study::analysis_json(a, info).dump(2) << "\n";
+  else study::print_analysis(std::cout, a, info);
+}
+
+// The benchmark: the grid with shared work, then a seeded random sample of its runs as independent
+// replays in the same invocation; the ratio of the time per run.
+void run_bench(const StudyArgs& a, const study::StudyInfo& info, const std::vector<study::StudyCase>& cases, int jobs) {
+  std::vector<storage::StudyRowRecord> rows;
+  study::StudyOptions o;
+  o.jobs = jobs;
+  o.on_rows = [&](std::vector<study::StudyRow>&& r) {
+    for (const auto& row : r) rows.push_back(study::record_of(row));
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const study::StudyStats st = study::run_study(cases, info.sets, o);
+  const double shared_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double rss_mb = proc_status_kb("VmHWM") / 1024.0;
+  // The sample: distinct (set, case) of valid sets, drawn with the seed.
+  std::vector<std::pair<std::size_t, std::size_t>> pool;
+  for (const auto& s : info.sets)
+    if (s.error.empty())
+      for (std::size_t c = 0; c < cases.size(); ++c) pool.emplace_back(s.index, c);
+  std::mt19937_64 rng(a.bench_seed);
+  std::shuffle(pool.begin(), pool.end(), rng);
+  pool.resize(std::min<std::size_t>(pool.size(), static_cast<std::size_t>(a.bench_sample)));
+  std::map<std::pair<std::size_t, std::size_t>, std::string> alone;
+  std::mutex mutex;
+  std::atomic<std::size_t> next{0};
+  const auto t1 = std::chrono::steady_clock::now();
+  const auto worker = [&] {
+    for (std::size_t i = next++; i < pool.size(); i = next++) {
+      const auto [set, c] = pool[i];
+      const std::string j = runtime::report_json(runtime::replay(cases[c].scenario, info.sets[set].parameters)).dump();
+      std::lock_guard<std::mutex> lock(mutex);
+      alone[pool[i]] = j;
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 1; j < jobs; ++j) threads.emplace_back(worker);
+  worker();
+  for (auto& t : threads) t.join();
+  const double alone_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  std::size_t same = 0;
+  for (const auto& r : rows) {
+    const auto it = alone.find({static_cast<std::size_t>(r.set_index), static_cast<std::size_t>(r.case_index)});
+    if (it != alone.end() && it->second == r.report_json) ++same;
+  }
+  const double per_run_shared = shared_s / static_cast<double>(st.rows);
+  const double per_run_alone = alone_s / static_cast<double>(pool.size());
+  std::printf("study benchmark: grid %s, %zu sets x %zu cases = %zu runs, %d jobs\n", a.grid.c_str(), info.sets.size(),
+              cases.size(), st.rows, jobs);
+  std::printf("  shared work:   %.1f s wall, %.1f runs/s, %zu controller runs (%zu forks, %zu units), peak RSS %.0f MB\n",
+              shared_s, static_cast<double>(st.rows) / shared_s, st.runs, st.forks, st.units, rss_mb);
+  std::printf("  work saved by sharing: %.1f %% of the sample cycles (%lld of %lld executed), %lld identifications\n",
+              100.0 * (1.0 - static_cast<double>(st.samples) / static_cast<double>(st.samples_alone)),
+              static_cast<long long>(st.samples), static_cast<long long>(st.samples_alone), static_cast<long long>(st.fits));
+  std::printf("  independent replays (baseline, seed %llu): %zu random runs in %.1f s, %.1f runs/s; "
+              "identical to the study's rows: %zu of %zu\n",
+              static_cast<unsigned long long>(a.bench_seed), pool.size(), alone_s,
+              static_cast<double>(pool.size()) / alone_s, same, pool.size());
+  std::printf("  ratio: %.1f x faster per run than independent replays (all %zu runs alone: ~%.0f s)\n",
+              per_run_alone / per_run_shared, st.rows, per_run_alone * static_cast<double>(st.rows));
+  if (same != pool.size()) throw std::runtime_error("benchmark: shared rows differ from independent replays");
+}
+
+void run_study_command(const StudyArgs& a) {
+  if (a.grid.empty()) throw UsageError("--grid is required (paper or a TOML file)");
+  study::StudyInfo info;
+  try {
+    info.grid = study::load_grid(a.grid);
+  } catch (const study::GridError& e) {
+    throw UsageError(std::string("--grid: ") + e.what());
+  }
+  info.sets = info.grid.sets();
+  const std::vector<study::StudyCase> cases = load_cases(a);
+  info.cases = study::case_infos(cases);
+  info.software_version = version();
+  int shard = 1, shards = 1;
+  if (!a.shard.empty()) {
+    std::tie(shard, shards) = parse_shard(a.shard);
+    info.shard = a.shard;
+  }
+  if (a.jobs < 0) throw UsageError("--jobs: must be >= 1 (0: every core)");
+  const int jobs = a.jobs > 0 ? a.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (a.bench) {
+    if (!a.db.empty() || a.resume || !a.shard.empty() || !a.csv.empty())
+      throw UsageError("--bench takes no --db, --csv, --shard or --resume");
+    run_bench(a, info, cases, jobs);
+    return;
+  }
+  if (a.resume && a.db.empty()) throw UsageError("--resume needs --db");
+
+  std::vector<storage::StudyRowRecord> rows;
+  std::unique_ptr<storage::StudyStore> store;
+  std::set<std::pair<std::int64_t, std::int64_t>> done;
+  if (!a.db.empty()) {
+    std::error_code ec;
+    if (fs::is_directory(a.db, ec)) throw UsageError("--db: " + a.db + " is a directory");
+    const auto stored = storage::StudyStore::header_of(a.db);
+    const storage::StudyHeader now = info.header();
+    if (stored && !a.resume)
+      throw UsageError(a.db + " holds a study already: continue it with --resume, or give another --db");
+    if (!stored && a.resume) throw UsageError(a.db + " holds no study to resume");
+    if (stored) {
+      const std::string diff = study::difference(*stored, now);
+      if (!diff.empty()) throw UsageError("cannot resume the study in " + a.db + ": " + diff);
+      rows = storage::StudyStore::rows_of(a.db);
+    }
+    store = std::make_unique<storage::StudyStore>(a.db, now);
+    for (const auto& r : rows) done.emplace(r.set_index, r.case_index);
+  }
+  // The rows this shard owns: its units and invalid sets.
+  std::size_t total = 0;
+  {
+    const auto units = study::plan_units(cases, info.sets);
+    for (std::size_t u = 0; u < units.size(); ++u)
+      if (study::unit_in_shard(u, shard, shards)) total += units[u].sets.size();
+    for (const auto& s : info.sets)
+      if (!s.error.empty() && study::invalid_set_in_shard(s.index, shard, shards)) total += cases.size();
+  }
+  const std::size_t reused = done.size();
+  Progress progress(total, reused, a.quiet);
+  study::StudyOptions o;
+  o.jobs = jobs;
+  o.shard = shard;
+  o.shards = shards;
+  o.stop = &g_stop;
+  o.wanted = [&](std::size_t set, std::size_t c) {
+    return done.find({static_cast<std::int64_t>(set), static_cast<std::int64_t>(c)}) == done.end();
+  };
+  o.on_rows = [&](std::vector<study::StudyRow>&& r) {
+    std::vector<storage::StudyRowRecord> records;
+    for (const auto& row : r) records.push_back(study::record_of(row));
+    if (store) store->add(records);
+    rows.insert(rows.end(), records.begin(), records.end());
+    progress.add(records.size());
+  };
+  g_stop = false;
+  g_signal = 0;
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  struct sigaction old_int {}, old_term {};
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
+  study::StudyStats st;
+  try {
+    st = study::run_study(cases, info.sets, o);
+  } catch (...) {
+    sigaction(SIGINT, &old_int, nullptr);
+    sigaction(SIGTERM, &old_term, nullptr);
+    throw;
+  }
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  progress.finish();
+  const std::size_t computed = rows.size() - reused;
+  if (st.stopped || g_stop) {
+    const int sig = g_signal.load();
+    throw ExitStatus(128 + (sig ? sig : SIGINT),
+                     "study stopped by signal " + std::to_string(sig) + ": " + std::to_string(rows.size()) + " of " +
+                         std::to_string(total) + " rows done (" + std::to_string(computed) + " computed now)" +
+                         (store ? "; continue with --resume --db " + a.db : "; nothing kept (no --db)"));
+  }
+  if (a.resume) std::cerr << "resumed " << a.db << ": " << reused << " rows reused, " << computed << " computed\n";
+  rows = sorted(std::move(rows));
+  if (!a.csv.empty()) write_csv(a.csv, info, rows);
+  print_result(info, rows, a.json, 5.0);
+  if (!a.json && !a.quiet)
+    std::cerr << "study: " << rows.size() << " rows in " << progress.elapsed() << " s (" << st.runs
+              << " controller runs, " << st.forks << " forks)\n";
+}
+
+void run_merge(const MergeArgs& a) {
+  if (a.shards.empty()) throw UsageError("study merge: give the shard files");
+  std::optional<storage::StudyHeader> first;
+  std::vector<storage::StudyRowRecord> rows;
+  std::map<std::pair<std::int64_t, std::int64_t>, std::string> owner;
+  std::set<std::string> shard_names;
+  for (const std::string& f : a.shards) {
+    const auto h = storage::StudyStore::header_of(f);
+    if (!h) throw UsageError(f + ": holds no study");
+    storage::StudyHeader as_all = *h;
+    as_all.shard = "all";
+    if (!first) {
+      first = as_all;
+    } else if (const std::string d = study::difference(*first, as_all); !d.empty()) {
+      throw UsageError(f + " is not a shard of the study in " + a.shards.front() + ": " + d);
+    }
+    if (!shard_names.insert(h->shard).second) throw UsageError(f + ": shard " + h->shard + " is given twice");
+    for (auto& r : storage::StudyStore::rows_of(f)) {
+      const auto [it, added] = owner.emplace(std::make_pair(r.set_index, r.case_index), f);
+      if (!added)
+        throw UsageError("overlap: the row of set " + std::to_string(r.set_index) + ", case " +
+                         std::to_string(r.case_index) + " is in " + it->second + " and in " + f);
+      rows.push_back(std::move(r));
+    }
+  }
+  const study::StudyInfo info = study::StudyInfo::of(*first);
+  if (rows.size() != info.runs()) {
+    for (std::size_t s = 0; s < info.sets.size(); ++s)
+      for (std::size_t c = 0; c < info.cases.size(); ++c)
+        if (!owner.count({static_cast<std::int64_t>(s), static_cast<std::int64_t>(c)}))
+          throw UsageError("gap: no shard holds the row of set " + std::to_string(s) + " (" + info.sets[s].key +
+                           "), case " + info.cases[c].name + " (" + std::to_string(info.runs() - rows.size()) +
+                           " rows missing; a shard is missing or unfinished: --resume it)");
+  }
+  std::error_code ec;
+  if (fs::exists(a.out, ec)) throw UsageError("--out: " + a.out + " exists; merge writes a new file");
+  storage::StudyStore out(a.out, *first);
+  out.add(sorted(std::move(rows)));
+  std::cerr << "merged " << a.shards.size() << " shards into " << a.out << ": " << info.runs() << " rows\n";
+}
+
+void run_report(const ReportArgs& a) {
+  const auto h = storage::StudyStore::header_of(a.file);
+  if (!h) throw UsageError(a.file + ": holds no study");
+  const study::StudyInfo info = study::StudyInfo::of(*h);
+  const auto rows = sorted(storage::StudyStore::rows_of(a.file));
+  if (!a.csv.empty()) write_csv(a.csv, info, rows);
+  print_result(info, rows, a.json, a.limit);
+}
+
+}  // namespace
+
+void add_study_command(CLI::App& app) {
+  auto args = std::make_shared<StudyArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "study", "Parameter study: every set of a grid of controller parameters over load cases (one row per set and "
+               "case, equal to alc replay with those parameters), the Eq. 8 optimum per case, the best set on every "
+               "case and the Pareto front of P99 against Pd (docs/study.md).");
+  cmd->add_option("--grid", args->grid, "paper (Tab. 1 of seed 004: 2,191 sets) or a TOML grid file");
+  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, or all (A-D)");
+  cmd->add_option("files", args->files, "Scenario CSV files (instead of --case)");
+  cmd->add_option("--jobs", args->jobs, "Worker threads (default 0: every core)");
+  cmd->add_option("--db", args->db, "Store the rows in this SQLite file as they finish (needed for --resume)");
+  cmd->add_option("--csv", args->csv, "Write the rows to this CSV file (one per set and case)");
+  cmd->add_flag("--json", args->json, "Print the analysis as JSON");
+  cmd->add_option("--shard", args->shard, "Run the I-th of N deterministic slices (1 <= I <= N), e.g. 2/8");
+  cmd->add_flag("--resume", args->resume, "Continue the study in --db: reuse its rows, compute the rest");
+  cmd->add_flag("--bench", args->bench,
+                "Benchmark: the grid with shared work, then a random sample as independent replays; prints runs/s, "
+                "work saved, peak RSS and the ratio");
+  cmd->add_option("--bench-sample", args->bench_sample, "Independent replays of the benchmark's baseline")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option_function<std::string>("--bench-seed", [args](const std::string& s) { args->bench_seed = parse_seed(s); },
+                                        "Seed of the benchmark's sample (default 1)");
+  cmd->add_flag("--quiet", args->quiet, "No progress on stderr");
+
+  auto merge = std::make_shared<MergeArgs>();
+  CLI::App* m = cmd->add_subcommand("merge", "Join shard files (--shard I/N with --db) into one study file; refuses "
+                                             "overlaps, gaps and shards of another grid, case set or version");
+  m->add_option("--out", merge->out, "The merged study file (new)")->required();
+  m->add_option("shards", merge->shards, "Shard files")->required();
+  m->callback([merge] { run_merge(*merge); });
+
+  auto report = std::make_shared<ReportArgs>();
+  CLI::App* r = cmd->add_subcommand("report", "The analysis of a study file (Eq. 8 optimum per case, the best set on "
+                                              "every case, the Pareto front)");
+  r->add_option("file", report->file, "Study file (--db of alc study, or alc study merge --out)")->required();
+  r->add_flag("--json", report->json, "Print the analysis as JSON");
+  r->add_option("--csv", report->csv, "Write the rows to this CSV file (as alc study --csv)");
+  cmd->callback([args, cmd] {
+    if (cmd->got_subcommand("merge") || cmd->got_subcommand("report")) return;
+    run_study_command(*args);
+  });
+  r->callback([report] { run_report(*report); });
+}
+
+}  // namespace alc::cli

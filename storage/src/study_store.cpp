@@ -1,0 +1,136 @@
+#include "storage/study_store.hpp"
+
+#include <chrono>
+
+#include "sqlite_db.hpp"
+#include "storage/schema.hpp"
+
+namespace alc::storage {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::unique_ptr<detail::Database> open_read(const fs::path& file) {
+  int version = 0;
+  return detail::open_database(file, {detail::OpenMode::Read, 5000, false}, version);
+}
+
+std::optional<StudyHeader> read_header(detail::Database& db) {
+  if (!db.table_exists("studies")) return std::nullopt;
+  detail::Statement st(db,
+                       "SELECT grid_json, cases_json, software_version, shard, set_count FROM studies "
+                       "ORDER BY study_id LIMIT 1");
+  if (!st.step()) return std::nullopt;
+  StudyHeader h;
+  h.grid_json = st.column_text(0);
+  h.cases_json = st.column_text(1);
+  h.software_version = st.column_text(2);
+  h.shard = st.column_text(3);
+  h.set_count = st.column_int(4);
+  return h;
+}
+
+std::optional<double> optional_double(const detail::Statement& st, int column) {
+  if (st.is_null(column)) return std::nullopt;
+  return st.column_double(column);
+}
+
+}  // namespace
+
+struct StudyStore::Impl {
+  std::unique_ptr<detail::Database> db;
+  std::optional<detail::Statement> insert;
+};
+
+std::optional<StudyHeader> StudyStore::header_of(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::exists(file, ec)) return std::nullopt;
+  auto db = open_read(file);
+  return read_header(*db);
+}
+
+std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
+  auto db = open_read(file);
+  std::vector<StudyRowRecord> rows;
+  if (!db->table_exists("study_rows")) return rows;
+  detail::Statement st(*db,
+                       "SELECT set_index, case_index, status, error, pd, p99_linear, p99_angular, report_json "
+                       "FROM study_rows ORDER BY set_index, case_index");
+  while (st.step()) {
+    StudyRowRecord r;
+    r.set_index = st.column_int(0);
+    r.case_index = st.column_int(1);
+    r.ok = st.column_text(2) == "ok";
+    r.error = st.column_text(3);
+    r.pd = optional_double(st, 4);
+    r.p99_linear = optional_double(st, 5);
+    r.p99_angular = optional_double(st, 6);
+    r.report_json = st.is_null(7) ? std::string() : st.column_text(7);
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+StudyStore::StudyStore(const fs::path& file, const StudyHeader& header) : impl_(std::make_unique<Impl>()) {
+  WriterOptions options;
+  options.create_directories = true;
+  impl_->db = detail::open_for_writing(file, options);
+  auto& db = *impl_->db;
+  db.exec("BEGIN IMMEDIATE");
+  try {
+    if (!read_header(db)) {
+      const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+      detail::Statement st(db,
+                           "INSERT INTO studies (study_id, grid_json, cases_json, software_version, shard, set_count, "
+                           "created_unix_s) VALUES (1, ?1, ?2, ?3, ?4, ?5, ?6)");
+      st.bind_text(1, header.grid_json).bind_text(2, header.cases_json).bind_text(3, header.software_version);
+      st.bind_text(4, header.shard).bind(5, header.set_count).bind(6, now);
+      st.run();
+    }
+    db.exec("COMMIT");
+  } catch (...) {
+    sqlite3_exec(db.handle(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  impl_->insert.emplace(db,
+                        "INSERT INTO study_rows (study_id, set_index, case_index, status, error, pd, p99_linear, "
+                        "p99_angular, report_json) VALUES (1, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
+}
+
+StudyStore::~StudyStore() = default;
+
+std::set<std::pair<std::int64_t, std::int64_t>> StudyStore::done() const {
+  std::set<std::pair<std::int64_t, std::int64_t>> d;
+  detail::Statement st(*impl_->db, "SELECT set_index, case_index FROM study_rows");
+  while (st.step()) d.emplace(st.column_int(0), st.column_int(1));
+  return d;
+}
+
+void StudyStore::add(const std::vector<StudyRowRecord>& rows) {
+  auto& db = *impl_->db;
+  auto& st = *impl_->insert;
+  const auto bind_optional = [&st](int index, const std::optional<double>& v) {
+    if (v) st.bind(index, *v);
+    else st.bind_null(index);
+  };
+  db.exec("BEGIN IMMEDIATE");
+  try {
+    for (const StudyRowRecord& r : rows) {
+      st.bind(1, r.set_index).bind(2, r.case_index).bind_text(3, r.ok ? "ok" : "error").bind_text(4, r.error);
+      bind_optional(5, r.pd);
+      bind_optional(6, r.p99_linear);
+      bind_optional(7, r.p99_angular);
+      if (r.ok) st.bind_text(8, r.report_json);
+      else st.bind_null(8);
+      st.run();
+    }
+    db.exec("COMMIT");
+  } catch (...) {
+    st.reset();
+    sqlite3_exec(db.handle(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+}
+
+}  // namespace alc::storage
