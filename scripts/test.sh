@@ -4,6 +4,9 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 ensure_packages "${ALC_PACKAGES[@]}"
 # LinuxCNC (rs274 and the headless simulator) for the nc_interface tests; large, so only here.
 ensure_packages linuxcnc-uspace
+# SLURM and munge for the study's cluster test (tests/study/slurm_study_test.sh starts its own
+# daemons; the packages' services are not used).
+ensure_packages slurmctld slurmd slurm-client munge
 status=0
 build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release
 ctest --no-tests=error --test-dir "$ALC_ROOT/build/test-release" -j "$ALC_JOBS" --output-on-failure || status=1
