@@ -1,0 +1,87 @@
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "study/grid.hpp"
+
+using namespace alc;
+using namespace alc::study;
+
+namespace {
+std::string error_of(const std::string& toml) {
+  try {
+    parse_grid(toml, "g.toml");
+  } catch (const GridError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("the paper grid has the study's 2191 sets") {
+  const Grid g = paper_grid();
+  const auto sets = g.sets();
+  CHECK(sets.size() == 2191);  // 7 x (13 x 6 x 4 + 1)
+  std::size_t inf_sets = 0;
+  for (const auto& s : sets) {
+    CHECK(s.error.empty());
+    CHECK(s.parameters.cp_interval_s == 300.0);
+    CHECK(s.parameters.acl_linear_um == 5.0);
+    CHECK(std::isinf(s.parameters.update_interval_s));
+    if (s.value("interval") == "inf") {
+      ++inf_sets;
+      CHECK(s.value("ng-meas").empty());  // moot without Post-CP probes
+      CHECK(s.options.size() == 2);
+    }
+  }
+  CHECK(inf_sets == 7);
+  CHECK(sets.front().key == "cp=6.5 interval=1 ng-interval=5 ng-meas=6");
+  CHECK(sets[1].key == "cp=6.5 interval=1 ng-interval=5 ng-meas=12");
+  CHECK(sets[1].parameters.ng_measurements == 12.0);
+  CHECK(sets[1].parameters.post_cp_interval_s == 3600.0);
+  CHECK(sets[1].parameters.ng_interval_s == 300.0);
+}
+
+TEST_CASE("a TOML grid is the product of its axes in file order, plus the fixed options") {
+  const Grid g = parse_grid("ng-meas = [6, 12]\ninterval = [2.5, \"inf\"]\n[fixed]\ncp = 12\nno-confirm = true\n", "g.toml");
+  REQUIRE(g.axes.size() == 2);
+  CHECK(g.axes[0].first == "ng-meas");
+  CHECK(g.axes[1].second == std::vector<std::string>{"2.5", "inf"});
+  const auto sets = g.sets();
+  // ng-meas=6/12 x interval=2.5, and one set for interval=inf (ng-meas moot there).
+  REQUIRE(sets.size() == 3);
+  CHECK(sets[0].key == "ng-meas=6 interval=2.5");
+  CHECK(sets[1].key == "interval=inf");
+  CHECK(sets[2].key == "ng-meas=12 interval=2.5");
+  CHECK(sets[0].parameters.cp_duration_s == 12 * 3600.0);
+  CHECK_FALSE(sets[0].parameters.confirm_breach);
+  CHECK(sets[0].parameters.post_cp_interval_s == 2.5 * 3600.0);
+}
+
+TEST_CASE("a bad grid names the file, line, key and value before any run") {
+  CHECK(error_of("cp = [6.5, -1]\n") == "g.toml:1:12: key 'cp', value '-1': cp: '-1' is not a number >= 0");
+  CHECK(error_of("cp = [6.5]\nintervall = [2]\n").rfind("g.toml:2:13: 'intervall' is not a grid key", 0) == 0);
+  CHECK(error_of("cp = 6.5\n").find("key 'cp' must be a list of values") != std::string::npos);
+  CHECK(error_of("cp = []\n").find("key 'cp' has no values") != std::string::npos);
+  CHECK(error_of("cp = [6, 6]\n").find("value '6' is listed twice") != std::string::npos);
+  CHECK(error_of("cp = [6]\n[fixed]\ncp = 6\n").find("key 'cp' is given twice") != std::string::npos);
+  CHECK(error_of("interval = [\"nan\"]\n").find("value 'nan'") != std::string::npos);
+  CHECK(error_of("cp = [\"0x10\"]\n").find("value '0x10'") != std::string::npos);
+  CHECK(error_of("method = [\"magic\"]\n").find("not fixed-poles or output-error") != std::string::npos);
+  CHECK(error_of("cp = [1\n").rfind("g.toml:", 0) == 0);  // a TOML syntax error keeps file:line
+  CHECK(error_of("[fixed]\ncp = 6\n").find("no axis") != std::string::npos);
+}
+
+TEST_CASE("an invalid combination is a set with its error, not a refused grid") {
+  // 0.05 h = 3 min of CP is shorter than the 5 min CP interval.
+  const auto sets = parse_grid("cp = [0.05, 6.5]\n", "g.toml").sets();
+  REQUIRE(sets.size() == 2);
+  CHECK(sets[0].error.find("cp_interval_s") != std::string::npos);
+  CHECK(sets[1].error.empty());
+}
+
+TEST_CASE("a grid survives its canonical form") {
+  const Grid g = paper_grid();
+  const Grid back = Grid::from_canonical(g.canonical(), "x");
+  CHECK(back.canonical() == g.canonical());
+  CHECK(back.sets().size() == 2191);
+}

@@ -1,0 +1,231 @@
+// alc study from the command line: files, resume, refusals, merge, report, a clean stop on SIGINT.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "../cli_support.hpp"
+
+using alc_test::run_alc;
+using alc_test::slurp;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path dir() { return alc_test::work_dir("study_cli"); }
+
+// Case A and B cut to 48 h as scenario CSV files (made once per test process).
+const fs::path& short_case(char name) {
+  static std::map<char, fs::path> made;
+  auto it = made.find(name);
+  if (it != made.end()) return it->second;
+  const fs::path full = dir() / (std::string("full_") + name + ".csv");
+  const fs::path cut = dir() / (std::string(1, static_cast<char>(std::tolower(name))) + ".csv");
+  REQUIRE(run_alc("simulate --case " + std::string(1, name) + " --out " + full.string(), "study_cli").exit_code == 0);
+  // Header + 48 h at 1 min.
+  REQUIRE(std::system(("head -n 2881 " + full.string() + " > " + cut.string()).c_str()) == 0);
+  return made.emplace(name, cut).first->second;
+}
+
+fs::path write(const std::string& name, const std::string& text) {
+  const fs::path p = dir() / name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+const char* kGrid = "cp = [0.05, 6.5]\ninterval = [2, 6, \"inf\"]\nng-meas = [6, 12]\n";
+
+std::string sql(const fs::path& db, const std::string& query) {
+  const fs::path out = dir() / "sql.out";
+  const std::string cmd = "sqlite3 " + db.string() + " \"" + query + "\" > " + out.string();
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  std::string s = slurp(out);
+  while (!s.empty() && s.back() == '\n') s.pop_back();
+  return s;
+}
+
+std::string files() { return short_case('A').string() + " " + short_case('B').string(); }
+
+}  // namespace
+
+TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows and the analysis") {
+  const fs::path grid = write("g.toml", kGrid);
+  const fs::path db = dir() / "whole.sqlite", csv = dir() / "whole.csv", csv2 = dir() / "report.csv";
+  fs::remove(db);
+  const auto r = run_alc("study --grid " + grid.string() + " " + files() + " --jobs 2 --db " + db.string() + " --csv " +
+                             csv.string() + " --json",
+                         "study_cli");
+  REQUIRE(r.exit_code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  CHECK(j["rows"] == 20);  // 10 sets (interval = inf: one set per CP) x 2 cases
+  CHECK(j["expected_rows"] == 20);
+  CHECK(j["per_case"].contains(short_case('A').string()));
+  CHECK(j["paper_set"].is_null() == false);  // cp 6.5, interval 2, ng-meas 12 with default ng-interval 10
+  const std::string text = slurp(csv);
+  std::istringstream lines(text);
+  std::string header;
+  std::getline(lines, header);
+  CHECK(header.rfind("set,case,cp,interval,ng-meas,status,error,Pd,M,ng_phases,updates,rejected_fits,cp_end_h,"
+                     "duration_h,P99_linear,P99_angular",
+                     0) == 0);
+  std::size_t rows = 0, errors = 0;
+  for (std::string line; std::getline(lines, line);) {
+    ++rows;
+    if (line.find(",error,") != std::string::npos) {
+      ++errors;
+      CHECK(line.find("cp_interval_s") != std::string::npos);  // the failed set says why
+    }
+  }
+  CHECK(rows == 20);
+  CHECK(errors == 10);  // cp = 0.05 h: its 5 sets x 2 cases
+  CHECK(sql(db, "SELECT count(*) FROM study_rows") == "20");
+  REQUIRE(run_alc("study report " + db.string() + " --csv " + csv2.string(), "study_cli").exit_code == 0);
+  CHECK(slurp(csv2) == text);
+
+  SECTION("--resume reuses the rows it has and computes the rest: the same rows") {
+    const fs::path partial = dir() / "partial.sqlite", csv3 = dir() / "resumed.csv";
+    fs::remove(partial);
+    fs::copy_file(db, partial);
+    sql(partial, "DELETE FROM study_rows WHERE set_index % 2 = 1");
+    const std::string left = sql(partial, "SELECT count(*) FROM study_rows");
+    const auto res = run_alc("study --grid " + grid.string() + " " + files() + " --db " + partial.string() +
+                                 " --resume --csv " + csv3.string(),
+                             "study_cli");
+    REQUIRE(res.exit_code == 0);
+    CHECK_THAT(res.err, Catch::Contains(left + " rows reused, " + std::to_string(20 - std::stoi(left)) + " computed"));
+    CHECK(slurp(csv3) == text);
+  }
+  SECTION("a study file is not overwritten, and resumes only the same study") {
+    auto again = run_alc("study --grid " + grid.string() + " " + files() + " --db " + db.string(), "study_cli");
+    CHECK(again.exit_code == 2);
+    CHECK_THAT(again.err, Catch::Contains("holds a study already"));
+    const fs::path other = write("other.toml", "cp = [6.5]\ninterval = [2, 6]\n");
+    again = run_alc("study --grid " + other.string() + " " + files() + " --db " + db.string() + " --resume", "study_cli");
+    CHECK(again.exit_code == 2);
+    CHECK_THAT(again.err, Catch::Contains("cannot resume") && Catch::Contains("the grid differs"));
+    // Another recording under the same file name.
+    const fs::path b_copy = dir() / "b_saved.csv";
+    fs::copy_file(short_case('B'), b_copy, fs::copy_options::overwrite_existing);
+    REQUIRE(std::system(("sed -i '100s/,\\([0-9]\\)/,9\\1/' " + short_case('B').string()).c_str()) == 0);
+    again = run_alc("study --grid " + grid.string() + " " + files() + " --db " + db.string() + " --resume", "study_cli");
+    fs::copy_file(b_copy, short_case('B'), fs::copy_options::overwrite_existing);
+    CHECK(again.exit_code == 2);
+    CHECK_THAT(again.err, Catch::Contains("the cases differ") && Catch::Contains("content hash"));
+  }
+  SECTION("shards merge into the whole study; overlaps, gaps and foreign shards are refused") {
+    std::string shard_files;
+    for (int i = 1; i <= 3; ++i) {
+      const fs::path s = dir() / ("shard" + std::to_string(i) + ".sqlite");
+      fs::remove(s);
+      REQUIRE(run_alc("study --grid " + grid.string() + " " + files() + " --shard " + std::to_string(i) + "/3 --db " +
+                          s.string() + " --quiet",
+                      "study_cli")
+                  .exit_code == 0);
+      shard_files += " " + s.string();
+    }
+    const fs::path merged = dir() / "merged.sqlite", merged_csv = dir() / "merged.csv";
+    fs::remove(merged);
+    REQUIRE(run_alc("study merge --out " + merged.string() + shard_files, "study_cli").exit_code == 0);
+    REQUIRE(run_alc("study report " + merged.string() + " --csv " + merged_csv.string(), "study_cli").exit_code == 0);
+    CHECK(slurp(merged_csv) == text);
+    const fs::path bad = dir() / "bad.sqlite";
+    fs::remove(bad);
+    auto m = run_alc("study merge --out " + bad.string() + " " + (dir() / "shard1.sqlite").string() + " " +
+                         (dir() / "shard2.sqlite").string(),
+                     "study_cli");
+    CHECK(m.exit_code == 2);
+    CHECK_THAT(m.err, Catch::Contains("gap: no shard holds the row"));
+    m = run_alc("study merge --out " + bad.string() + shard_files + " " + db.string(), "study_cli");
+    CHECK(m.exit_code == 2);
+    CHECK_THAT(m.err, Catch::Contains("overlap: the row of set"));
+    const fs::path other = write("other.toml", "cp = [6.5]\ninterval = [2, 6]\n");
+    const fs::path foreign = dir() / "foreign.sqlite";
+    fs::remove(foreign);
+    REQUIRE(run_alc("study --grid " + other.string() + " " + files() + " --shard 1/3 --db " + foreign.string() +
+                        " --quiet",
+                    "study_cli")
+                .exit_code == 0);
+    m = run_alc("study merge --out " + bad.string() + " " + foreign.string() + " " +
+                    (dir() / "shard2.sqlite").string(),
+                "study_cli");
+    CHECK(m.exit_code == 2);
+    CHECK_THAT(m.err, Catch::Contains("is not a shard of the study") && Catch::Contains("the grid differs"));
+    CHECK_FALSE(fs::exists(bad));
+  }
+}
+
+TEST_CASE("bad study arguments are usage errors naming the value") {
+  const fs::path grid = write("bad.toml", "cp = [6.5]\nng-meas = [6, -2]\n");
+  auto r = run_alc("study --grid " + grid.string() + " --case A", "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains(grid.string() + ":2:") && Catch::Contains("key 'ng-meas', value '-2'"));
+  r = run_alc("study --grid paper --case A --shard 4/3", "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--shard: '4/3'"));
+  r = run_alc("study --grid paper --case A --resume", "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--resume needs --db"));
+  r = run_alc("study --grid nothere.toml --case A", "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("nothere.toml"));
+  r = run_alc("study --grid paper " + dir().string(), "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("is a directory"));
+}
+
+TEST_CASE("SIGINT stops a study cleanly: finished rows stay, --resume completes it") {
+  const fs::path grid = write("long.toml", "cp = [6.5, 12]\ninterval = [1, 2, 3, 4, 6]\nng-meas = [6, 12]\n");
+  const fs::path db = dir() / "stopped.sqlite";
+  fs::remove(db);
+  short_case('A');  // also simulates the whole of case A (8 days): long enough to interrupt
+  const fs::path full = dir() / "full_A.csv";
+  const std::string args = "study --grid " + grid.string() + " " + full.string() + " --jobs 1 --db " + db.string();
+  // Built before fork: dir() names itself after the process id.
+  const std::string cmd = std::string("exec \"") + ALC_CLI_PATH + "\" " + args + " >/dev/null 2>" +
+                          (dir() / "stopped.err").string();
+  const pid_t pid = fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Wait for the first finished unit in the file, then interrupt.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+  while (std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (fs::exists(db) && std::system(("sqlite3 " + db.string() +
+                                       " 'SELECT count(*) FROM study_rows' 2>/dev/null | grep -qv '^0$'")
+                                          .c_str()) == 0)
+      break;
+  }
+  kill(pid, SIGINT);
+  int status = 0;
+  REQUIRE(waitpid(pid, &status, 0) == pid);
+  REQUIRE(WIFEXITED(status));
+  const int code = WEXITSTATUS(status);
+  const std::string err = slurp(dir() / "stopped.err");
+  INFO("exit " << code << ": " << err);
+  if (code == 0) {
+    WARN("the study finished before SIGINT arrived; nothing to resume");
+    return;
+  }
+  CHECK(code == 130);
+  CHECK_THAT(err, Catch::Contains("study stopped by signal 2") && Catch::Contains("continue with --resume"));
+  const int kept = std::stoi(sql(db, "SELECT count(*) FROM study_rows"));
+  CHECK(kept > 0);
+  CHECK(kept < 20);
+  const fs::path resumed = dir() / "stopped.csv", whole = dir() / "unstopped.csv";
+  const auto r = run_alc(args + " --resume --csv " + resumed.string(), "study_cli");
+  REQUIRE(r.exit_code == 0);
+  CHECK_THAT(r.err, Catch::Contains(std::to_string(kept) + " rows reused"));
+  REQUIRE(run_alc("study --grid " + grid.string() + " " + full.string() + " --jobs 2 --quiet --csv " +
+                      whole.string(),
+                  "study_cli")
+              .exit_code == 0);
+  CHECK(slurp(resumed) == slurp(whole));
+}
