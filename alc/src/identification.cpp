@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <sstream>
 
@@ -28,6 +29,9 @@ std::string format_number(double v) {
 // Lags of input columns at every history sample: column `input * taus + k` holds the lag of `input`
 // with time constant taus[k] (columns of inputs not listed stay zero). A LagCache (thermal_model.hpp).
 using LagTable = LagCache;
+
+// Samples per block of LagCache::block_min / block_max.
+constexpr Index kLagBlock = 64;
 
 Index lag_column(const LagTable& t, int input, int k) {
   return static_cast<Index>(input) * static_cast<Index>(t.taus.size()) + k;
@@ -62,7 +66,15 @@ void extend_lags(LagTable& t, const InputHistory& h, const Eigen::VectorXd& ref,
     Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(capacity, n_in * n_tau);
     grown.topRows(t.samples) = t.x.topRows(t.samples);
     t.x.swap(grown);
+    const Index blocks = (capacity + kLagBlock - 1) / kLagBlock;
+    const Index kept_blocks = (t.samples + kLagBlock - 1) / kLagBlock;
+    for (Eigen::MatrixXd* range : {&t.block_min, &t.block_max}) {
+      Eigen::MatrixXd grown_range = Eigen::MatrixXd::Zero(blocks, n_in * n_tau);
+      grown_range.topRows(kept_blocks) = range->topRows(kept_blocks);
+      range->swap(grown_range);
+    }
   }
+  const Index first_new = t.samples;
   Index s = t.samples;
   if (s == 0) {
     t.first_time_s = t.last_time_s = h.time_s.front();
@@ -94,6 +106,18 @@ void extend_lags(LagTable& t, const InputHistory& h, const Eigen::VectorXd& ref,
       if (std::isfinite(u)) t.held(i) = u;
     }
   }
+  for (Index c = 0; c < t.x.cols(); ++c) {
+    for (Index r = first_new; r < n; ++r) {
+      const Index b = r / kLagBlock;
+      const double v = t.x(r, c);
+      if (r % kLagBlock == 0) {
+        t.block_min(b, c) = t.block_max(b, c) = v;
+      } else {
+        t.block_min(b, c) = std::min(t.block_min(b, c), v);
+        t.block_max(b, c) = std::max(t.block_max(b, c), v);
+      }
+    }
+  }
   t.samples = n;
   t.last_row = h.inputs.row(n - 1);
 }
@@ -121,6 +145,8 @@ class OutputData {
     const double ms = (w_.array() * y_.array().square()).sum() / w_.sum();
     floor_ = 1e-12 * ms + 1e-300;  // relative RMS 1e-6: below this every fit counts as exact
   }
+  OutputData(const OutputData&) = delete;
+  OutputData& operator=(const OutputData&) = delete;
 
   Index rows() const { return y_.size(); }
   const Eigen::VectorXd& y() const { return y_; }
@@ -141,35 +167,31 @@ class OutputData {
   }
 
   // The nearly unbiased weighted least squares fit of a structure (the search's solve).
-  detail::LinearFit fit(const Structure& s) const {
-    return detail::solve_weighted_ridge(design(s), y_, w_, selection_ridge(), 1);
-  }
+  detail::LinearFit fit(const Structure& s) const { return search().all.fit(columns(s), 1); }
 
   // Lower is better. BIC/AIC on the weighted residual variance; hold-out on every 4th measurement.
   double criterion(const Structure& s) const {
-    const Eigen::MatrixXd phi = design(s);
+    const Search& search = this->search();
+    const std::vector<Index>& cols = columns(s);
     const auto m = static_cast<double>(rows());
     const auto p = static_cast<double>(s.parameters());
-    if (options_.criterion == StructureCriterion::HoldOut && rows() >= 8) {
+    if (!search.folds.empty()) {
       // 4-fold cross-validation: fold f holds out every 4th measurement from the f-th on; the
       // held-out errors of all folds together score the structure (one fold alone is too noisy
       // to choose among dozens of structures).
       double sse = 0.0;
       double w_sum = 0.0;
       for (Index f = 0; f < 4; ++f) {
-        Eigen::VectorXd w_fit = w_;
-        Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
-        for (Index r = f; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
-        const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_fit, selection_ridge(), 1);
+        const detail::LinearFit fit = search.folds[static_cast<std::size_t>(f)].fit(cols, 1, &search.residual);
         if (!fit.ok) return kInf;
-        const Eigen::VectorXd r = y_ - phi * fit.theta;
-        sse += (w_val.array() * r.array().square()).sum();
+        const Eigen::VectorXd& w_val = search.held_out[static_cast<std::size_t>(f)];
+        sse += (w_val.array() * search.residual.array().square()).sum();
         w_sum += w_val.sum();
       }
       if (!(w_sum > 0.0)) return kInf;
       return std::log(sse / w_sum + floor_) + 0.01 * p;  // 1 % per parameter breaks ties towards the simpler
     }
-    const detail::LinearFit fit = detail::solve_weighted_ridge(phi, y_, w_, selection_ridge(), 1);
+    const detail::LinearFit fit = search.all.fit(cols, 1);
     if (!fit.ok) return kInf;
     const double penalty = options_.criterion == StructureCriterion::AIC ? 2.0 : std::log(m);
     return m * std::log(fit.weighted_rss / fit.weight_sum + floor_) + penalty * p;
@@ -181,12 +203,54 @@ class OutputData {
   double selection_ridge() const { return std::min(options_.ridge, kSelectionRidge); }
   static constexpr double kSelectionRidge = 1e-6;
 
+  // What the structure search solves on: every column it may choose (the offset, then each column
+  // of the lag table) at the rows, with the Gram matrices of all of them formed once.
+  struct Search {
+    Eigen::MatrixXd z;                                 // rows x (1 + lag table columns)
+    detail::SubsetLeastSquares all;                    // weights w
+    std::vector<detail::SubsetLeastSquares> folds;     // hold-out: weights w without fold f's rows
+    std::vector<Eigen::VectorXd> held_out;             // hold-out: weights of fold f's rows only
+    mutable Eigen::VectorXd residual;                  // scratch
+    Search(Eigen::MatrixXd z_, const Eigen::VectorXd& y, const Eigen::VectorXd& w, double ridge)
+        : z(std::move(z_)), all(z, y, w, ridge) {}
+  };
+  const Search& search() const {
+    if (!search_) {
+      const Index lag_cols = lags_.x.cols();
+      Eigen::MatrixXd z(rows(), 1 + lag_cols);
+      z.col(0).setOnes();
+      for (Index c = 0; c < lag_cols; ++c)
+        for (Index r = 0; r < rows(); ++r) z(r, 1 + c) = lags_.x(row_sample_[static_cast<std::size_t>(r)], c);
+      search_ = std::make_unique<Search>(std::move(z), y_, w_, selection_ridge());
+      if (options_.criterion == StructureCriterion::HoldOut && rows() >= 8) {
+        search_->folds.reserve(4);  // the solvers keep references: no reallocation after this
+        for (Index f = 0; f < 4; ++f) {
+          Eigen::VectorXd w_fit = w_;
+          Eigen::VectorXd w_val = Eigen::VectorXd::Zero(rows());
+          for (Index r = f; r < rows(); r += 4) std::swap(w_fit(r), w_val(r));
+          search_->folds.emplace_back(search_->z, y_, w_fit, selection_ridge());
+          search_->held_out.push_back(std::move(w_val));
+        }
+      }
+    }
+    return *search_;
+  }
+  // Columns of Search::z of a structure, in the order of design(s).
+  const std::vector<Index>& columns(const Structure& s) const {
+    columns_.assign(1, 0);
+    for (const int i : s.inputs)
+      for (const int g : s.poles) columns_.push_back(1 + lag_column(lags_, i, g));
+    return columns_;
+  }
+
   const LagTable& lags_;
   std::vector<Index> row_sample_;                            // history sample of each row
   Eigen::VectorXd y_;
   Eigen::VectorXd w_;
   const IdentificationOptions& options_;
   double floor_ = 0.0;
+  mutable std::unique_ptr<Search> search_;                   // built by the first search call
+  mutable std::vector<Index> columns_;                       // scratch of columns()
 };
 
 // Forward selection of inputs (each brings one lag per pole) while the criterion improves.
@@ -244,28 +308,62 @@ std::vector<int> select_poles(const OutputData& d, const std::vector<int>& input
 
 struct OutputSimulation {
   Eigen::VectorXd at_rows;   // prediction at each measurement sample
-  double peak = 0.0;         // largest |prediction| from the first to the last measurement sample
+  bool beyond = false;       // |prediction| exceeds the limit somewhere from the first to the last
+                             // measurement sample (or is not finite there)
+  double peak = 0.0;         // if beyond: the largest |prediction| over that span
   bool finite = true;
   Eigen::VectorXd end_lags;  // lag states after the last sample (input-major, pole-minor)
 };
 
-// The unclamped prediction of an output model whose lags are columns `cols` of `table`.
+// The unclamped prediction of an output model whose lags are columns `cols` of `table`, at the
+// measurement samples, and whether it stays within `limit` between them. A block of the table
+// whose column ranges bound the prediction within the limit is not simulated; the others are, and
+// the whole span only when the limit is exceeded (for the peak in the message).
 OutputSimulation simulate_output(const LagTable& table, const std::vector<Index>& cols, const Eigen::VectorXd& theta,
-                                 const std::vector<Index>& row_sample) {
+                                 const std::vector<Index>& row_sample, double limit) {
   OutputSimulation out;
   const auto lags = static_cast<Index>(cols.size());
   out.at_rows.resize(static_cast<Index>(row_sample.size()));
   out.end_lags.resize(lags);
   const Index last_row = table.samples - 1;
   for (Index c = 0; c < lags; ++c) out.end_lags(c) = table.x(last_row, cols[static_cast<std::size_t>(c)]);
+  for (std::size_t r = 0; r < row_sample.size(); ++r) {
+    double v = theta(0);
+    for (Index c = 0; c < lags; ++c) v += theta(1 + c) * table.x(row_sample[r], cols[static_cast<std::size_t>(c)]);
+    out.at_rows(static_cast<Index>(r)) = v;
+  }
   if (row_sample.empty()) return out;
   const Index first = row_sample.front();
   const Index last = row_sample.back();
-  Eigen::VectorXd v = Eigen::VectorXd::Constant(last - first + 1, theta(0));
-  for (Index c = 0; c < lags; ++c) v += theta(1 + c) * table.x.col(cols[static_cast<std::size_t>(c)]).segment(first, last - first + 1);
-  out.finite = v.allFinite();
-  out.peak = v.size() ? v.cwiseAbs().maxCoeff() : 0.0;
-  for (std::size_t r = 0; r < row_sample.size(); ++r) out.at_rows(static_cast<Index>(r)) = v(row_sample[r] - first);
+  // The prediction over [begin, end], its peak and finiteness.
+  Eigen::Matrix<double, kLagBlock, 1> block;
+  const auto simulate = [&](Index begin, Index end) {
+    auto v = block.head(end + 1 - begin);
+    v.setConstant(theta(0));
+    for (Index c = 0; c < lags; ++c) v += theta(1 + c) * table.x.col(cols[static_cast<std::size_t>(c)]).segment(begin, v.size());
+    out.finite = out.finite && v.allFinite();
+    out.peak = std::max(out.peak, v.cwiseAbs().maxCoeff());
+  };
+  // Rounding: the bound's sums round like the prediction's, within a relative 1e-12.
+  const double safe = limit * (1.0 - 1e-12);
+  for (Index b = first / kLagBlock; b <= last / kLagBlock && !out.beyond; ++b) {
+    double hi = theta(0);
+    double lo = theta(0);
+    for (Index c = 0; c < lags; ++c) {
+      const double g = theta(1 + c);
+      const double x_min = table.block_min(b, cols[static_cast<std::size_t>(c)]);
+      const double x_max = table.block_max(b, cols[static_cast<std::size_t>(c)]);
+      hi += g >= 0.0 ? g * x_max : g * x_min;
+      lo += g >= 0.0 ? g * x_min : g * x_max;
+    }
+    if (std::max(std::abs(hi), std::abs(lo)) <= safe) continue;  // (false for NaN)
+    simulate(std::max(first, b * kLagBlock), std::min(last, b * kLagBlock + kLagBlock - 1));
+    out.beyond = !out.finite || out.peak > limit;
+  }
+  if (out.beyond) {
+    out.peak = 0.0;
+    for (Index b = first; b <= last; b += kLagBlock) simulate(b, std::min(last, b + kLagBlock - 1));
+  }
   return out;
 }
 
@@ -530,11 +628,11 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
       for (const int i : s.inputs)
         for (const int g : s.poles) cols.push_back(lag_column(table, i, g));
     }
-    const OutputSimulation sim = simulate_output(moved ? moved_lags : table, cols, theta, row_sample);
     double y_max = 0.0;
     for (Index r = 0; r < m; ++r) y_max = std::max(y_max, std::abs(y(r)));
-    const double peak = sim.peak;
-    const bool finite = sim.finite;
+    om.output_limit = std::max(options.output_limit_factor * y_max, 20.0 * scale);
+    const OutputSimulation sim = simulate_output(moved ? moved_lags : table, cols, theta, row_sample, om.output_limit);
+    const bool finite = sim.finite && sim.at_rows.allFinite();
     const Eigen::VectorXd e = y - sim.at_rows;
     const double rss = e.squaredNorm();
     sum.residual_max = e.size() ? e.cwiseAbs().maxCoeff() : 0.0;
@@ -563,13 +661,12 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
     }
     sum.time_constants_s = tau;
     sum.parameter_std = cond.parameter_std;
-    om.output_limit = std::max(options.output_limit_factor * y_max, 20.0 * scale);
     if (!finite || !theta.allFinite()) {
       unusable("the fitted model does not give finite predictions");
       continue;
     }
-    if (peak > om.output_limit) {
-      unusable("prediction between the probes reaches " + format_number(peak) + " " + unit + ", beyond the bound " +
+    if (sim.beyond) {
+      unusable("prediction between the probes reaches " + format_number(sim.peak) + " " + unit + ", beyond the bound " +
                format_number(om.output_limit) + " " + unit + " (" + format_number(options.output_limit_factor) +
                " x the largest measured error)");
       continue;

@@ -1,7 +1,8 @@
 #include "least_squares.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
-#include <Eigen/SVD>
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <limits>
 
@@ -51,28 +52,91 @@ LinearFit solve_weighted_ridge(const Eigen::MatrixXd& phi, const Eigen::VectorXd
   return fit;
 }
 
+SubsetLeastSquares::SubsetLeastSquares(const Eigen::MatrixXd& z, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
+                                       double ridge)
+    : z_(z), y_(y), w_(w), ridge_(ridge), weight_sum_(w.sum()) {
+  finite_ = z.allFinite() && y.allFinite() && w.allFinite() && weight_sum_ > 0.0;
+  if (!finite_) return;
+  scale_ = column_scales(z, w);
+  const Eigen::VectorXd sw = w.array().sqrt();
+  const Eigen::MatrixXd a = sw.asDiagonal() * z * scale_.cwiseInverse().asDiagonal();
+  gram_ = Eigen::MatrixXd::Zero(z.cols(), z.cols());
+  gram_.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose());
+  rhs_ = a.transpose() * sw.cwiseProduct(y);
+}
+
+LinearFit SubsetLeastSquares::fit(const std::vector<Eigen::Index>& cols, Eigen::Index unpenalised,
+                                  Eigen::VectorXd* residual) const {
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  const auto residual_of = [&](const LinearFit& f) {
+    Eigen::VectorXd r = y_;
+    for (Eigen::Index j = 0; j < p; ++j) r -= f.theta(j) * z_.col(cols[static_cast<std::size_t>(j)]);
+    return r;
+  };
+  const auto fallback = [&] {
+    Eigen::MatrixXd phi(z_.rows(), p);
+    for (Eigen::Index j = 0; j < p; ++j) phi.col(j) = z_.col(cols[static_cast<std::size_t>(j)]);
+    const LinearFit f = solve_weighted_ridge(phi, y_, w_, ridge_, unpenalised);
+    if (residual) *residual = residual_of(f);
+    return f;
+  };
+  if (!finite_ || (!(ridge_ > 0.0) && p > unpenalised)) return fallback();
+  Eigen::MatrixXd h(p, p);
+  Eigen::VectorXd b(p);
+  const double lambda2 = ridge_ * weight_sum_;
+  for (Eigen::Index j = 0; j < p; ++j) {
+    const Eigen::Index cj = cols[static_cast<std::size_t>(j)];
+    for (Eigen::Index k = j; k < p; ++k) {
+      const Eigen::Index ck = cols[static_cast<std::size_t>(k)];
+      h(k, j) = ck >= cj ? gram_(ck, cj) : gram_(cj, ck);  // lower triangle of the stored lower triangle
+    }
+    if (j >= unpenalised) h(j, j) += lambda2;
+    b(j) = rhs_(cj);
+  }
+  const Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(h);
+  if (llt.info() != Eigen::Success) return fallback();
+  LinearFit f;
+  f.weight_sum = weight_sum_;
+  f.theta = llt.solve(b);
+  for (Eigen::Index j = 0; j < p; ++j) f.theta(j) /= scale_(cols[static_cast<std::size_t>(j)]);
+  const Eigen::VectorXd r = residual_of(f);
+  f.weighted_rss = (w_.array() * r.array().square()).sum();
+  f.ok = f.theta.allFinite() && std::isfinite(f.weighted_rss);
+  if (!f.ok) f.theta.setZero();
+  if (residual) *residual = f.ok ? r : y_;  // theta = 0 when not ok, as solve_weighted_ridge
+  return f;
+}
+
 Conditioning conditioning(const Eigen::MatrixXd& phi, const Eigen::VectorXd& w, double weighted_rss) {
   Conditioning c;
   const Eigen::Index m = phi.rows();
   const Eigen::Index p = phi.cols();
   c.parameter_std = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::infinity());
-  if (m == 0 || p == 0 || !phi.allFinite()) {
-    c.condition = std::numeric_limits<double>::infinity();
-    return c;
-  }
+  c.condition = std::numeric_limits<double>::infinity();
+  if (m < p || p == 0 || !phi.allFinite()) return c;  // fewer singular values than columns: singular
   const Eigen::VectorXd s = column_scales(phi, w);
   const Eigen::MatrixXd a = w.array().sqrt().matrix().asDiagonal() * phi * s.cwiseInverse().asDiagonal();
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinV);
-  const Eigen::VectorXd& sv = svd.singularValues();
-  const double smax = sv.size() ? sv(0) : 0.0;
-  const double smin = sv.size() ? sv(sv.size() - 1) : 0.0;
-  c.condition = (sv.size() < p || smin <= 0.0) ? std::numeric_limits<double>::infinity() : smax / smin;
-  if (m > p && std::isfinite(c.condition)) {
+  // a = Q R: the singular values of the p x p R are those of a. The largest is the square root of
+  // the largest eigenvalue of R^T R, the smallest the inverse of the largest singular value of
+  // R^-1 (largest eigenvalues are accurate to rounding, the smallest of R^T R would not be).
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(a);
+  const Eigen::MatrixXd r = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+  if ((r.diagonal().array() == 0.0).any()) return c;
+  Eigen::MatrixXd r_inv = Eigen::MatrixXd::Identity(p, p);
+  r.triangularView<Eigen::Upper>().solveInPlace(r_inv);
+  if (!r_inv.allFinite()) return c;
+  const auto largest_eigenvalue = [](const Eigen::MatrixXd& gram) {
+    return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(gram, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+  };
+  const double smax = std::sqrt(largest_eigenvalue(r.transpose() * r));
+  const double inv_smin = std::sqrt(largest_eigenvalue(r_inv * r_inv.transpose()));
+  if (!(inv_smin > 0.0) || !std::isfinite(smax * inv_smin)) return c;
+  c.condition = smax * inv_smin;
+  if (m > p) {
     // Var(e_i) = sigma2 / w_i; sigma2 estimated from the weighted residuals.
     const double sigma2 = weighted_rss / static_cast<double>(m - p);
-    const Eigen::MatrixXd v = svd.matrixV() * sv.cwiseInverse().asDiagonal();
-    // cov(theta_scaled) = sigma2 V S^-2 V^T, theta = theta_scaled / s
-    for (Eigen::Index j = 0; j < p; ++j) c.parameter_std(j) = std::sqrt(sigma2 * v.row(j).squaredNorm()) / s(j);
+    // cov(theta_scaled) = sigma2 (a^T a)^-1 = sigma2 R^-1 R^-T, theta = theta_scaled / s
+    for (Eigen::Index j = 0; j < p; ++j) c.parameter_std(j) = std::sqrt(sigma2 * r_inv.row(j).squaredNorm()) / s(j);
   }
   return c;
 }

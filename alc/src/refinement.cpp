@@ -35,57 +35,31 @@ ceres::Solver::Options solver_options(int max_iterations) {
   return o;
 }
 
-// Weighted RMS of each lag column: the scale of the ridge term (as in solve_weighted_ridge).
-Eigen::VectorXd ridge_weights(const Eigen::MatrixXd& phi, const Eigen::VectorXd& w, double ridge) {
-  const double wsum = w.sum();
-  Eigen::VectorXd r(phi.cols() - 1);
-  for (Eigen::Index j = 1; j < phi.cols(); ++j) {
-    const double ms = (w.array() * phi.col(j).array().square()).sum() / wsum;
-    r(j - 1) = std::sqrt(ridge * wsum * (ms > 0.0 ? ms : 1.0));
-  }
-  return r;
-}
-
-// One measurement on fixed regressors: r = sqrt(w) (phi theta - y).
-class LinearResidual final : public ceres::CostFunction {
- public:
-  LinearResidual(Eigen::VectorXd phi, double y) : phi_(std::move(phi)), y_(y) {
-    set_num_residuals(1);
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(phi_.size()));
-  }
-  bool Evaluate(double const* const* p, double* r, double** j) const override {
-    const Eigen::Map<const Eigen::VectorXd> theta(p[0], phi_.size());
-    r[0] = phi_.dot(theta) - y_;
-    if (j && j[0]) Eigen::Map<Eigen::VectorXd>(j[0], phi_.size()) = phi_;
-    return true;
-  }
-
- private:
-  Eigen::VectorXd phi_;  // sqrt(w) * regressor row
-  double y_;             // sqrt(w) * measurement
+// One term of the robust cost of a residual r: ½ rho(r²) as Ceres' HuberLoss / CauchyLoss of scale
+// a define rho, its derivative psi(r), and the curvature of the Newton step: Huber's own second
+// derivative (1 inside the scale, 0 outside; the cost is convex), Cauchy's IRLS weight psi(r)/r
+// (its second derivative is negative beyond the scale: the weight keeps the step a descent step,
+// the majorise-minimise step of iteratively reweighted least squares).
+struct RobustTerm {
+  double cost;
+  double psi;
+  double curvature;
 };
 
-// Ridge on the gains: r_j = c_j theta_j for j >= 1 (the offset is not penalised).
-class RidgeResidual final : public ceres::CostFunction {
- public:
-  explicit RidgeResidual(Eigen::VectorXd c) : c_(std::move(c)) {
-    set_num_residuals(static_cast<int>(c_.size()));
-    mutable_parameter_block_sizes()->push_back(static_cast<int>(c_.size() + 1));
-  }
-  bool Evaluate(double const* const* p, double* r, double** j) const override {
-    const auto n = c_.size();
-    for (Eigen::Index i = 0; i < n; ++i) r[i] = c_(i) * p[0][i + 1];
-    if (j && j[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(j[0], n, n + 1);
-      jac.setZero();
-      for (Eigen::Index i = 0; i < n; ++i) jac(i, i + 1) = c_(i);
+RobustTerm robust_term(RobustLoss loss, double a, double r) {
+  const double s = r * r;
+  switch (loss) {
+    case RobustLoss::Huber:
+      if (s <= a * a) return {0.5 * s, r, 1.0};
+      return {a * std::abs(r) - 0.5 * a * a, std::copysign(a, r), 0.0};
+    case RobustLoss::Cauchy: {
+      const double q = 1.0 + s / (a * a);
+      return {0.5 * a * a * std::log(q), r / q, 1.0 / q};
     }
-    return true;
+    case RobustLoss::None: break;
   }
-
- private:
-  Eigen::VectorXd c_;
-};
+  return {0.5 * s, r, 1.0};
+}
 
 bool finite_summary(const ceres::Solver::Summary& s) {
   return s.IsSolutionUsable() && std::isfinite(s.initial_cost) && std::isfinite(s.final_cost);
@@ -194,24 +168,93 @@ class OutputErrorResidual final : public ceres::CostFunction {
 
 Refinement refine_gains(const Eigen::MatrixXd& phi, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
                         const Eigen::VectorXd& theta0, const RobustSettings& settings) {
+  using Eigen::Index;
   Refinement out;
   out.theta = theta0;
-  const std::unique_ptr<ceres::LossFunction> loss = make_loss(settings);
-  ceres::Problem problem(problem_options());
-  Eigen::VectorXd theta = theta0;
-  for (Eigen::Index i = 0; i < phi.rows(); ++i) {
-    if (!(w(i) > 0.0)) continue;
-    const double sw = std::sqrt(w(i));
-    problem.AddResidualBlock(new LinearResidual(sw * phi.row(i).transpose(), sw * y(i)), loss.get(), theta.data());
+  const Index m = phi.rows();
+  const Index p = phi.cols();
+  // The column-scaled problem (as in solve_weighted_ridge): rows sqrt(w) phi / s, t = s theta, the
+  // ridge ridge·Σw on every gain.
+  const Eigen::VectorXd sw = w.unaryExpr([](double v) { return v > 0.0 ? std::sqrt(v) : 0.0; });
+  const double wsum = sw.squaredNorm();
+  Eigen::VectorXd s(p);
+  for (Index j = 0; j < p; ++j) {
+    const double ms = wsum > 0.0 ? sw.cwiseProduct(phi.col(j)).squaredNorm() / wsum : 0.0;
+    s(j) = ms > 0.0 && std::isfinite(ms) ? std::sqrt(ms) : 1.0;
   }
-  if (settings.ridge > 0.0 && phi.cols() > 1)
-    problem.AddResidualBlock(new RidgeResidual(ridge_weights(phi, w, settings.ridge)), nullptr, theta.data());
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options(settings.max_iterations), &problem, &summary);
-  out.cost_before = summary.initial_cost;
-  out.cost_after = summary.final_cost;
-  if (!finite_summary(summary) || !theta.allFinite()) {
-    out.message = "robust refinement failed (" + summary.message + "), least-squares gains kept";
+  const Eigen::MatrixXd a = sw.asDiagonal() * phi * s.cwiseInverse().asDiagonal();
+  const Eigen::VectorXd b = sw.cwiseProduct(y);
+  const double lambda2 = settings.ridge > 0.0 ? settings.ridge * wsum : 0.0;
+  const double scale = settings.scale;
+  Eigen::VectorXd r(m);
+  Eigen::VectorXd psi(m);
+  Eigen::VectorXd curvature(m);
+  // Cost ½ Σ rho(r_i²) + ½ lambda2 Σ_{j >= 1} t_j² (Ceres' definition); fills r, psi, curvature.
+  const auto evaluate = [&](const Eigen::VectorXd& t) {
+    r.noalias() = a * t - b;
+    double cost = 0.5 * lambda2 * t.tail(p - 1).squaredNorm();
+    for (Index i = 0; i < m; ++i) {
+      const RobustTerm term = robust_term(settings.loss, scale, r(i));
+      cost += term.cost;
+      psi(i) = term.psi;
+      curvature(i) = term.curvature;
+    }
+    return cost;
+  };
+  Eigen::VectorXd t = s.cwiseProduct(theta0);
+  double cost = p > 0 && m > 0 && a.allFinite() && b.allFinite() && t.allFinite() ? evaluate(t) : kInf;
+  out.cost_before = cost;
+  out.cost_after = cost;
+  if (!std::isfinite(cost)) {
+    out.message = "robust refinement failed (non-finite cost at the start), least-squares gains kept";
+    return out;
+  }
+  // Newton steps with a backtracking (Armijo) line search. Huber: the cost is convex and piecewise
+  // quadratic, and a full step that keeps the set of residuals within the scale lands on the
+  // minimum. Cauchy: IRLS steps, each lowers the cost, to the local minimum next to theta0.
+  Eigen::MatrixXd h(p, p);
+  Eigen::VectorXd g(p);
+  Eigen::VectorXd step(p);
+  Eigen::VectorXd trial(p);
+  Eigen::LLT<Eigen::MatrixXd> llt(p);
+  for (int iteration = 0; iteration < settings.max_iterations; ++iteration) {
+    g.noalias() = a.transpose() * psi;
+    g.tail(p - 1) += lambda2 * t.tail(p - 1);
+    bool solved = false;
+    for (int attempt = 0; attempt < 2 && !solved; ++attempt) {
+      if (attempt == 1) {
+        // Singular Newton matrix (e.g. every residual beyond the Huber scale): IRLS weights psi/r.
+        for (Index i = 0; i < m; ++i) curvature(i) = r(i) != 0.0 ? psi(i) / r(i) : 1.0;
+      }
+      h.setZero();
+      h.selfadjointView<Eigen::Lower>().rankUpdate(a.transpose() * curvature.cwiseSqrt().asDiagonal());
+      h.diagonal().tail(p - 1).array() += lambda2;
+      llt.compute(h);
+      solved = llt.info() == Eigen::Success;
+    }
+    if (!solved) break;
+    step = -llt.solve(g);
+    const double slope = g.dot(step);  // the predicted decrease of a full step is -slope / 2
+    if (!(slope < 0.0) || -0.5 * slope <= 1e-14 * cost) break;  // at the minimum (to rounding)
+    double alpha = 1.0;
+    double trial_cost = kInf;
+    bool accepted = false;
+    for (int halving = 0; halving < 40 && !accepted; ++halving) {
+      if (halving > 0) alpha *= 0.5;
+      trial = t + alpha * step;
+      trial_cost = evaluate(trial);
+      accepted = trial_cost <= cost + 1e-4 * alpha * slope;
+    }
+    if (!accepted) break;  // no decrease along the step: t is the minimum to rounding
+    const bool negligible = cost - trial_cost <= 1e-12 * cost;
+    t = trial;
+    cost = trial_cost;
+    if (negligible) break;
+  }
+  const Eigen::VectorXd theta = t.cwiseQuotient(s);
+  out.cost_after = cost;
+  if (!theta.allFinite() || !std::isfinite(cost)) {
+    out.message = "robust refinement failed (non-finite solution), least-squares gains kept";
     return out;
   }
   out.theta = theta;

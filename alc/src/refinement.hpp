@@ -1,6 +1,6 @@
 #pragma once
-// Ceres refinements of a fixed-pole fit: robust gains (route a) and output error with free time
-// constants (route b). Internal to identification.
+// Refinements of a fixed-pole fit: robust gains (route a, Newton / IRLS in Eigen) and output error
+// with free time constants (route b, Ceres). Internal to identification.
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -12,8 +12,8 @@ namespace alc::detail {
 struct Refinement {
   Eigen::VectorXd theta;          // [b0, gains input-major pole-minor]
   std::vector<double> tau_s;      // [s] time constants (unchanged for the gains-only refinement)
-  double cost_before = 0.0;       // Ceres cost at the start
-  double cost_after = 0.0;        // Ceres cost at the end
+  double cost_before = 0.0;       // cost at the start (Ceres' definition: ½ Σ rho(r²) + ½ ridge terms)
+  double cost_after = 0.0;        // cost at the end
   bool ok = false;                // false: keep the starting point (message says why)
   std::string message;
 };
@@ -25,7 +25,9 @@ struct RobustSettings {
   int max_iterations = 50;
 };
 
-// Robust gains on fixed regressors phi (rows x (1 + lags)), residual sqrt(w) (phi theta - y).
+// Robust gains on fixed regressors phi (rows x (1 + lags)), residual sqrt(w) (phi theta - y), ridge
+// on the gains as in solve_weighted_ridge: Newton (Huber) or IRLS (Cauchy) steps with a line search
+// from theta0 (docs/identification.md, step 6).
 Refinement refine_gains(const Eigen::MatrixXd& phi, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
                         const Eigen::VectorXd& theta0, const RobustSettings& settings);
 

@@ -47,7 +47,7 @@ struct InputHistory {
 enum class RobustLoss { None, Huber, Cauchy };
 enum class StructureCriterion { BIC, AIC, HoldOut };
 // FixedPoles: route (a), poles from a grid of time constants, gains by weighted least squares
-//   (QR), structure by the criterion, then a robust (Ceres) refinement of the gains.
+//   (QR), structure by the criterion, then a robust (Huber/Cauchy) refinement of the gains.
 // OutputError: route (b), starts from FixedPoles and refines gains and time constants together on
 //   the simulated output at the probe times (Ceres, robust loss).
 enum class IdentificationMethod { FixedPoles, OutputError };
@@ -72,7 +72,8 @@ struct IdentificationOptions {
   int min_measurements = 6;                  // fewer probes -> not usable
   double output_limit_factor = 4.0;          // [-] predictions are bounded by this times the largest
                                              //     measured |error| (at least 20 robust scales)
-  int max_iterations = 50;                   // [-] Ceres iterations of the robust / output-error fit
+  int max_iterations = 50;                   // [-] iterations of the robust (Newton / IRLS) and the
+                                             //     output-error (Ceres) fit
 
   // Empty if valid, else which constraint is violated, naming the field and value.
   std::string validate() const;
@@ -147,6 +148,9 @@ struct LagCache {
   Eigen::VectorXd held;                      // input held after the last sample (reference at the start)
   Eigen::VectorXd factor;                    // exp(-last_dt_s / tau) per time constant
   Eigen::RowVectorXd last_row;               // inputs of the last sample covered (to recognise the history)
+  Eigen::MatrixXd block_min;                 // per block of 64 samples (row s / 64) and column: the least
+  Eigen::MatrixXd block_max;                 // and the largest x of the block's covered samples (the
+                                             // bound check between the probes skips safe blocks)
 };
 
 // Time constant [s] of a discrete pole at `base_step_s` and back.
