@@ -1,12 +1,10 @@
 #include "study/engine.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <map>
 #include <mutex>
 #include <thread>
 
-#include "common/byte_codec.hpp"
 #include "runtime/driver.hpp"
 #include "runtime/recorded_source.hpp"
 
@@ -113,18 +111,6 @@ class UnitRunner {
 };
 
 }  // namespace
-
-std::string content_hash(const scenarios::Scenario& s) {
-  common::ByteWriter w;
-  w.strings(s.input_names);
-  w.strings(s.output_names);
-  w.f64_vector(s.time_s);
-  w.matrix(s.inputs);
-  w.matrix(s.outputs);
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(common::checksum64(w.take())));
-  return hex;
-}
 
 std::vector<Unit> plan_units(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets) {
   std::vector<Unit> units;

@@ -20,4 +20,8 @@ struct Scenario {
   int output_index(const std::string& name) const;
 };
 
+// The content hash of a scenario: checksum64 (common/byte_codec.hpp) of its names, times and values
+// as 16 hex digits. Another recording under the same file name has another hash.
+std::string content_hash(const Scenario& scenario);
+
 }  // namespace alc::scenarios

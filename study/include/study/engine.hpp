@@ -26,8 +26,7 @@ struct StudyCase {
   scenarios::Scenario scenario;
   std::string content_hash;         // hex checksum of names, times and values (a changed recording differs)
 };
-// The content hash of a scenario (checksum64 of its names and values), 16 hex digits.
-std::string content_hash(const scenarios::Scenario& scenario);
+using scenarios::content_hash;
 
 struct StudyRow {
   std::size_t set = 0;
