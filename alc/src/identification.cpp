@@ -571,7 +571,9 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
       unusable("weighted least squares gave no finite solution");
       continue;
     }
-    const detail::Conditioning cond = detail::conditioning(phi, w, fit.weighted_rss);
+    detail::Conditioning cond;
+    if (options.fit_statistics) cond = detail::conditioning(phi, w, fit.weighted_rss);
+    else cond.condition = std::numeric_limits<double>::quiet_NaN();
     Eigen::VectorXd theta = fit.theta;
     std::vector<double> tau;
     for (const int g : s.poles) tau.push_back(table.taus[static_cast<std::size_t>(g)]);

@@ -22,6 +22,12 @@ std::string stage_key(const ParameterSet& set, runtime::Stage first, runtime::St
   return key;
 }
 
+// The fit summary's condition numbers and standard errors: no decision reads them and no row shows them.
+AlcParameters without_statistics(AlcParameters p) {
+  p.identification.fit_statistics = false;
+  return p;
+}
+
 // One controller of a unit with what a replay drives beside it: the source at its row, the
 // indicators, the driver loop.
 struct Branch {
@@ -31,12 +37,12 @@ struct Branch {
   runtime::Driver driver;
 
   Branch(const scenarios::Scenario& s, const AlcParameters& p)
-      : controller(s.input_names, s.output_names, p), source(s), evaluation(s), driver(controller) {
+      : controller(s.input_names, s.output_names, without_statistics(p)), source(s), evaluation(s), driver(controller) {
     driver.add(evaluation);
   }
   // A copy of `o` that continues with `p` (Controller::fork).
   Branch(const Branch& o, const AlcParameters& p)
-      : controller(o.controller.fork(p)), source(o.source), evaluation(o.evaluation), driver(controller) {
+      : controller(o.controller.fork(without_statistics(p))), source(o.source), evaluation(o.evaluation), driver(controller) {
     driver.add(evaluation);
     if (o.driver.last_sample()) driver.continue_after(*o.driver.last_sample());
   }
@@ -84,7 +90,7 @@ class UnitRunner {
             run(child, group, &*p, rows);
           }
           const auto& last = by_key[key_order.back()];
-          b.controller = std::move(b.controller).fork(sets_[last.front()].parameters);
+          b.controller = std::move(b.controller).fork(without_statistics(sets_[last.front()].parameters));
           ++stats_.forks;
           run(b, last, &*p, rows);
           return;

@@ -74,6 +74,9 @@ struct IdentificationOptions {
                                              //     measured |error| (at least 20 robust scales)
   int max_iterations = 50;                   // [-] iterations of the robust (Newton / IRLS) and the
                                              //     output-error (Ceres) fit
+  bool fit_statistics = true;                // condition number and standard errors in the fit summary; no
+                                             // decision reads them (a study turns them off; not part of a
+                                             // run's identity)
 
   // Empty if valid, else which constraint is violated, naming the field and value.
   std::string validate() const;
