@@ -22,6 +22,7 @@
 #include "scenarios/scenario_csv.hpp"
 #include "storage/storage_error.hpp"
 #include "study/analysis.hpp"
+#include "study/figures.hpp"
 
 namespace alc::cli {
 
@@ -61,6 +62,8 @@ struct ReportArgs {
   bool json = false;
   std::string csv;
   double limit = 5.0;
+  std::string svg;              // directory for the figures
+  std::string heatmap_cp;       // CP of the heat maps ("" : the default)
 };
 
 std::string version() { return std::string("alc ") + ALC_VERSION; }
@@ -376,8 +379,28 @@ void run_report(const ReportArgs& a) {
   if (!h) throw UsageError(a.file + ": holds no study");
   const study::StudyInfo info = study::StudyInfo::of(*h);
   const auto rows = sorted(storage::StudyStore::rows_of(a.file));
+  if (!a.heatmap_cp.empty() && a.svg.empty()) throw UsageError("--heatmap-cp needs --svg");
+  if (std::error_code ec; !a.svg.empty() && fs::exists(a.svg, ec) && !fs::is_directory(a.svg, ec))
+    throw UsageError("--svg: " + a.svg + " exists and is not a directory");
+  std::optional<std::string> cp;
+  if (!a.heatmap_cp.empty()) {
+    try {
+      cp = study::grid_cp(info, a.heatmap_cp);
+    } catch (const study::FigureError& e) {
+      throw UsageError(std::string("--heatmap-cp: ") + e.what());
+    }
+  }
   if (!a.csv.empty()) write_csv(a.csv, info, rows);
-  print_result(info, rows, a.json, a.limit);
+  const study::Analysis analysis = study::analyse(info, rows, a.limit);
+  if (a.json) std::cout << study::analysis_json(analysis, info).dump(2) << "\n";
+  else study::print_analysis(std::cout, analysis, info);
+  if (!a.svg.empty()) {
+    const study::FiguresWritten w = study::write_figures(info, rows, analysis, a.svg, cp);
+    for (const std::string& note : w.notes) std::cerr << "study report: " << note << "\n";
+    std::cerr << "study report: " << w.files.size() << " figures in " << a.svg << ":";
+    for (const auto& f : w.files) std::cerr << " " << f.filename().string();
+    std::cerr << "\n";
+  }
 }
 
 }  // namespace
@@ -419,6 +442,12 @@ void add_study_command(CLI::App& app) {
   r->add_option("file", report->file, "Study file (--db of alc study, or alc study merge --out)")->required();
   r->add_flag("--json", report->json, "Print the analysis as JSON");
   r->add_option("--csv", report->csv, "Write the rows to this CSV file (as alc study --csv)");
+  r->add_option("--svg", report->svg,
+                 "Write SVG figures into this directory (created if missing): pareto-<case>.svg per case, "
+                 "heatmap-p99-cp<H>.svg and heatmap-pd-cp<H>.svg (docs/study.md, Figures)");
+  r->add_option("--heatmap-cp", report->heatmap_cp,
+                "CP length [h] of the heat maps, a value of the grid's cp axis (default: the CP of the first "
+                "case's Eq. 8 optimum, else the first)");
   cmd->callback([args, cmd] {
     if (cmd->got_subcommand("merge") || cmd->got_subcommand("report")) return;
     run_study_command(*args);
