@@ -41,6 +41,8 @@ struct ReplayArgs {
   bool json = false;
   bool no_refit = false;
   bool no_confirm = false;
+  std::string schedule = "paper", uncertainty_fraction = "0.5", min_interval = "0.5", max_interval = "12";
+  bool no_guard = false;
   std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
@@ -60,7 +62,12 @@ AlcParameters parameters_from(const ReplayArgs& a) {
                             {"half-life", a.half_life},     {"method", a.method},    {"max-order", a.max_order},
                             {"structure-refresh", a.structure_refresh},
                             {"no-refit", a.no_refit ? "true" : "false"},
-                            {"no-confirm", a.no_confirm ? "true" : "false"}};
+                            {"no-confirm", a.no_confirm ? "true" : "false"},
+                            {"schedule", a.schedule},
+                            {"uncertainty-fraction", a.uncertainty_fraction},
+                            {"min-interval", a.min_interval},
+                            {"max-interval", a.max_interval},
+                            {"no-guard", a.no_guard ? "true" : "false"}};
   if (!a.since.empty()) o.emplace_back("since", a.since);
   try {
     return runtime::parameters_of(o);
@@ -304,6 +311,17 @@ void add_replay_command(CLI::App& app) {
   cmd->add_flag("--no-confirm", args->no_confirm,
                 "Learn from a breaching probe at once; by default the first NG probe must confirm the breach, and an "
                 "unconfirmed one is set aside as an outlier and ends NG");
+  cmd->add_option("--schedule", args->schedule,
+                  "Post-CP probing: paper (seed 004's fixed interval) or adaptive (probe when the predicted "
+                  "uncertainty of the compensated error reaches --uncertainty-fraction x ACL; docs/adaptive.md)")
+      ->capture_default_str();
+  cmd->add_option("--uncertainty-fraction", args->uncertainty_fraction, "Adaptive: fraction of the ACL, (0, 1]")
+      ->capture_default_str();
+  cmd->add_option("--min-interval", args->min_interval, "Adaptive: shortest Post-CP interval [h]")->capture_default_str();
+  cmd->add_option("--max-interval", args->max_interval, "Adaptive: longest Post-CP interval [h]")->capture_default_str();
+  cmd->add_flag("--no-guard", args->no_guard,
+                "Never hold compensation off (by default an output's compensation is held off while, on recent "
+                "probes, its residual exceeds both the error without compensation and the ACL)");
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
   cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");

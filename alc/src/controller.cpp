@@ -32,8 +32,19 @@ std::string_view to_string(ControllerEvent::Type type) {
     case ControllerEvent::Type::ModelRejected: return "model_rejected";
     case ControllerEvent::Type::AclBreach: return "acl_breach";
     case ControllerEvent::Type::OutlierRejected: return "outlier_rejected";
+    case ControllerEvent::Type::Guard: return "guard";
   }
   return "?";
+}
+
+void init_evidence(ControllerState& s, std::size_t outputs) {
+  const auto n = static_cast<Eigen::Index>(outputs);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (s.drift_rate.size() != n) s.drift_rate = Eigen::VectorXd::Constant(n, nan);
+  if (s.noise_var.size() != n) s.noise_var = Eigen::VectorXd::Constant(n, nan);
+  if (s.guard_residual.size() != n) s.guard_residual = Eigen::VectorXd::Zero(n);
+  if (s.guard_error.size() != n) s.guard_error = Eigen::VectorXd::Zero(n);
+  if (s.guard_gain.size() != n) s.guard_gain = Eigen::VectorXd::Ones(n);
 }
 
 std::string AlcParameters::validate() const {
@@ -61,6 +72,11 @@ std::string AlcParameters::validate() const {
   if (std::isnan(learning_since_s) || learning_since_s == kInf)
     return describe("learning_since_s", learning_since_s, "must be a time or -inf");
   if (const std::string why = identification.validate(); !why.empty()) return "identification: " + why;
+  if (!(uncertainty_fraction > 0.0 && uncertainty_fraction <= 1.0))
+    return describe("uncertainty_fraction", uncertainty_fraction, "must be in (0, 1]");
+  if (!positive_finite(min_interval_s)) return describe("min_interval_s", min_interval_s, "must be positive and finite");
+  if (!(max_interval_s >= min_interval_s) || std::isinf(max_interval_s))
+    return describe("max_interval_s", max_interval_s, "must be finite and not below min_interval_s");
   return {};
 }
 
@@ -74,16 +90,27 @@ probing::PaperScheduleOptions AlcParameters::schedule() const {
   return o;
 }
 
+std::shared_ptr<const probing::SchedulePolicy> AlcParameters::schedule_policy() const {
+  if (schedule_kind == Schedule::Paper) return std::make_shared<const probing::PaperSchedule>(schedule());
+  probing::AdaptiveScheduleOptions o;
+  o.paper = schedule();
+  o.fraction = uncertainty_fraction;
+  o.min_interval_s = min_interval_s;
+  o.max_interval_s = max_interval_s;
+  return std::make_shared<const probing::AdaptiveSchedule>(o);
+}
+
 Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
                        AlcParameters params, SchedulePtr schedule)
     : output_names_(std::move(output_names)), params_(std::move(params)), schedule_(std::move(schedule)) {
   if (const std::string why = params_.validate(); !why.empty()) throw std::invalid_argument(why);
-  if (!schedule_) schedule_ = std::make_shared<const probing::PaperSchedule>(params_.schedule());
+  if (!schedule_) schedule_ = params_.schedule_policy();
   if (output_names_.empty()) throw std::invalid_argument("controller: no error outputs");
   for (const auto& name : output_names_) kinds_.push_back(error_kind(name));
   state_.history.input_names = std::move(input_names);
   state_.history.inputs.resize(0, static_cast<Eigen::Index>(state_.history.input_names.size()));
   state_.prediction = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(output_names_.size()));
+  init_evidence(state_, output_names_.size());
 }
 
 Controller::Controller(std::vector<std::string> input_names, std::vector<std::string> output_names,
@@ -94,6 +121,7 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
   if (state.prediction.size() != static_cast<Eigen::Index>(output_names_.size()))
     throw std::invalid_argument("controller: saved state has another number of outputs");
   state_ = std::move(state);
+  init_evidence(state_, output_names_.size());  // a state saved before the evidence existed
 }
 
 double Controller::learning_window_start(double time_s) const {
@@ -136,7 +164,75 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
   c.phase_start_s = state_.phase_start_s;
   c.last_update_s = state_.last_update_s;
   c.ng_probes = state_.ng_probes;
+  c.drift_rate = state_.drift_rate;
+  c.noise_var = state_.noise_var;
+  c.acl.resize(static_cast<Eigen::Index>(output_names_.size()));
+  for (std::size_t i = 0; i < output_names_.size(); ++i) c.acl(static_cast<Eigen::Index>(i)) = acl_of(i);
+  c.output_names = &output_names_;
   return c;
+}
+
+void Controller::schedule_next(double time_s, ControllerOutput& out) {
+  const probing::ScheduleContext ctx = schedule_context(time_s);
+  state_.next_probe_due_s = schedule_->next_due(ctx);
+  std::string why = schedule_->explain(ctx);
+  if (why.empty()) return;
+  ControllerEvent e;
+  e.type = ControllerEvent::Type::ProbeIntervalChange;
+  e.time_s = time_s;
+  e.from = e.to = state_.phase;
+  e.interval_s = state_.next_probe_due_s - time_s;
+  e.reason = std::move(why);
+  state_.current_interval_s = e.interval_s;
+  out.events.push_back(std::move(e));
+}
+
+Eigen::VectorXd Controller::compensated() const {
+  if (state_.guard_gain.size() != state_.prediction.size()) return state_.prediction;
+  return state_.prediction.cwiseProduct(state_.guard_gain);
+}
+
+void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
+                             ControllerOutput& out) {
+  // Decay of the guard's sums per probe: the last five or so probes weigh most.
+  constexpr double kGuardDecay = 0.8;
+  constexpr int kGuardMinProbes = 4;
+  const double dt = time_s - state_.last_probe_s;
+  ++state_.guard_probes;
+  for (Eigen::Index i = 0; i < residuals.size(); ++i) {
+    const double r = residuals(i);
+    if (std::isnan(r) || std::isnan(errors(i))) continue;
+    if (dt > 0.0 && std::isfinite(dt)) {
+      // Variance growth since the probe before: what the residual adds beyond the fit's noise.
+      const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
+      const double rate = std::max(0.0, r * r - noise) / dt;
+      state_.drift_rate(i) = std::isfinite(state_.drift_rate(i)) ? 0.5 * state_.drift_rate(i) + 0.5 * rate : rate;
+    }
+    state_.guard_residual(i) = kGuardDecay * state_.guard_residual(i) + r * r;
+    state_.guard_error(i) = kGuardDecay * state_.guard_error(i) + errors(i) * errors(i);
+    // Held off while the model's recent residual is both larger than the error without compensation
+    // and beyond the ACL: within the ACL compensating does no harm worth a switch.
+    const double weights = (1.0 - std::pow(kGuardDecay, state_.guard_probes)) / (1.0 - kGuardDecay);
+    const double residual_rms = std::sqrt(state_.guard_residual(i) / weights);
+    const double gain = params_.guard && state_.guard_probes >= kGuardMinProbes &&
+                                state_.guard_residual(i) > state_.guard_error(i) &&
+                                residual_rms > acl_of(static_cast<std::size_t>(i))
+                            ? 0.0
+                            : 1.0;
+    if (gain == state_.guard_gain(i)) continue;
+    state_.guard_gain(i) = gain;
+    ControllerEvent e;
+    e.type = ControllerEvent::Type::Guard;
+    e.time_s = time_s;
+    e.from = e.to = state_.phase;
+    e.output = output_names_[static_cast<std::size_t>(i)];
+    e.value = std::sqrt(state_.guard_residual(i));
+    e.limit = std::sqrt(state_.guard_error(i));
+    e.reason = gain == 0.0 ? "guard: compensation held off: on recent probes the model's residual exceeds the error "
+                             "without compensation"
+                           : "guard: compensation resumed: the model's residual is below the error without compensation again";
+    out.events.push_back(std::move(e));
+  }
 }
 
 double Controller::next_due(double time_s) const { return schedule_->next_due(schedule_context(time_s)); }
@@ -144,8 +240,8 @@ double Controller::next_due(double time_s) const { return schedule_->next_due(sc
 void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason,
                        const std::string& interval_reason) {
   change_phase(to, time_s, out, reason);
-  state_.next_probe_due_s = next_due(time_s);
   set_interval(schedule_->interval(to), time_s, out, interval_reason);
+  schedule_next(time_s, out);
 }
 
 Eigen::VectorXd Controller::thermal_errors(const ProbeMeasurement& probe) const {
@@ -175,7 +271,7 @@ Controller Controller::fork(AlcParameters params, SchedulePtr schedule) && {
   if (const std::string why = params.validate(); !why.empty()) throw std::invalid_argument(why);
   Controller c = std::move(*this);
   c.params_ = std::move(params);
-  c.schedule_ = schedule ? std::move(schedule) : std::make_shared<const probing::PaperSchedule>(c.params_.schedule());
+  c.schedule_ = schedule ? std::move(schedule) : c.params_.schedule_policy();
   return c;
 }
 
@@ -183,7 +279,7 @@ ControllerOutput Controller::rejected(std::string reason) const {
   ControllerOutput out;
   out.accepted = false;
   out.reason = std::move(reason);
-  out.prediction = state_.prediction;
+  out.prediction = compensated();
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }
@@ -233,6 +329,8 @@ bool Controller::reidentify(double time_s, ControllerOutput& out, const std::str
     predictor.set_state(fit.predictor_state);
     state_.prediction = predictor.prediction();
     state_.predictor = std::move(predictor);
+    for (std::size_t i = 0; i < fit.outputs.size() && i < output_names_.size(); ++i)
+      state_.noise_var(static_cast<Eigen::Index>(i)) = fit.outputs[i].residual_rms * fit.outputs[i].residual_rms;
     state_.has_model = true;
     state_.last_update_s = time_s;
     ++state_.updates;
@@ -259,6 +357,14 @@ void Controller::advance(double time_s, ControllerOutput& out) {
     state_.probes_at_last_attempt = static_cast<int>(state_.probes.size());
     if (!reidentify(time_s, out, "end of calibration phase after " + hours(time_s - state_.start_time_s))) return;
     state_.cp_end_s = time_s;
+    // The drift evidence starts from the paper's Post-CP interval: the adaptive schedule's first
+    // interval is that one, then the probes' residuals take over.
+    if (std::isfinite(params_.post_cp_interval_s))
+      for (Eigen::Index i = 0; i < state_.drift_rate.size(); ++i) {
+        const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
+        const double budget = std::pow(params_.uncertainty_fraction * acl_of(static_cast<std::size_t>(i)), 2) - noise;
+        if (budget > 0.0) state_.drift_rate(i) = budget / params_.post_cp_interval_s;
+      }
     enter(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified",
           "Post-CP interval");
     return;
@@ -301,7 +407,7 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
   trim();
-  out.prediction = state_.prediction;
+  out.prediction = compensated();
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }
@@ -338,6 +444,8 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   // Residual against the prediction that was active when the probe ran.
   std::vector<std::size_t> breaches;
   const Eigen::VectorXd residuals = this->residuals(record.errors);
+  if (state_.phase == Phase::PostCalibration && state_.has_model) weigh_probe(t, record.errors, residuals, out);
+  state_.last_probe_s = t;
   for (Eigen::Index i = 0; i < n; ++i) {
     const double residual = residuals(i);
     if (std::isnan(residual)) continue;
@@ -366,11 +474,11 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
     case Phase::PostCalibration:
       if (breaches.empty()) {
         if (params_.refit_on_probe) reidentify(t, out, "Post-CP probe within the ACL", true);
-        state_.next_probe_due_s = next_due(t);
+        schedule_next(t, out);
       } else if (!schedule_->ng_burst()) {
         // No NG burst configured: learn from what is there, right away.
         reidentify(t, out, "ACL breach (" + output_names_[breaches.front()] + "), update without NG burst");
-        state_.next_probe_due_s = next_due(t);
+        schedule_next(t, out);
       } else {
         ++state_.ng_phases;
         state_.ng_probes = 0;
@@ -445,7 +553,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       break;
     }
   }
-  out.prediction = state_.prediction;
+  out.prediction = compensated();
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }
@@ -454,7 +562,7 @@ ControllerOutput Controller::on_tick(double time_s) {
   ControllerOutput out;
   if (!state_.started) return out;
   advance(time_s, out);
-  out.prediction = state_.prediction;
+  out.prediction = compensated();
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }

@@ -43,6 +43,14 @@ const std::vector<ParameterOption>& parameter_options() {
        Stage::CpEnd},
       {"no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd},
       {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach},
+      {"schedule", "-", "paper or adaptive", "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
+       Stage::CpEnd},
+      {"uncertainty-fraction", "-", "a number in (0, 1]",
+       "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL", Stage::CpEnd},
+      {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
+      {"max-interval", "h", kNumber, "Adaptive: longest Post-CP interval", Stage::CpEnd},
+      {"no-guard", "-", kFlag, "Never hold compensation off (the guard compares it with none on recent probes)",
+       Stage::CpEnd},
   };
   return options;
 }
@@ -88,6 +96,15 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   else if (name == "structure-refresh") p.structure_refresh = number_or_inf(1.0);
   else if (name == "no-refit") p.refit_on_probe = !parse_flag(name, text);
   else if (name == "no-confirm") p.confirm_breach = !parse_flag(name, text);
+  else if (name == "no-guard") p.guard = !parse_flag(name, text);
+  else if (name == "uncertainty-fraction") p.uncertainty_fraction = number(1.0);
+  else if (name == "min-interval") p.min_interval_s = number(3600.0);
+  else if (name == "max-interval") p.max_interval_s = number(3600.0);
+  else if (name == "schedule") {
+    if (text == "paper") p.schedule_kind = AlcParameters::Schedule::Paper;
+    else if (text == "adaptive") p.schedule_kind = AlcParameters::Schedule::Adaptive;
+    else refuse(name, text, o->values);
+  }
   else if (name == "method") {
     if (text == "fixed-poles") p.identification.method = IdentificationMethod::FixedPoles;
     else if (text == "output-error") p.identification.method = IdentificationMethod::OutputError;

@@ -20,7 +20,7 @@ nlohmann::json number(double v) {
 
 nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view schedule) {
   const IdentificationOptions& i = p.identification;
-  return {{"schedule", std::string(schedule)},
+  nlohmann::json j = {{"schedule", std::string(schedule)},
           {"cp_duration_s", number(p.cp_duration_s)},
           {"cp_interval_s", number(p.cp_interval_s)},
           {"post_cp_interval_s", number(p.post_cp_interval_s)},
@@ -52,6 +52,14 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
             {"min_measurements", i.min_measurements},
             {"output_limit_factor", number(i.output_limit_factor)},
             {"max_iterations", i.max_iterations}}}};
+  // Added with the adaptive schedule and the guard: present only where they differ from what a run
+  // before them did, so the identity of those runs (and their --resume) is unchanged.
+  if (p.schedule_kind == AlcParameters::Schedule::Adaptive)
+    j["adaptive"] = {{"uncertainty_fraction", number(p.uncertainty_fraction)},
+                     {"min_interval_s", number(p.min_interval_s)},
+                     {"max_interval_s", number(p.max_interval_s)}};
+  if (!p.guard) j["guard"] = false;
+  return j;
 }
 
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRecord& record, double snapshot_every_s)

@@ -41,9 +41,17 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.string(c.has_model ? storage::thermal_model_to_json(c.predictor.model()) : std::string());
   e.vector(c.has_model ? c.predictor.state() : Eigen::VectorXd());
   e.vector(c.prediction);
+  // Version 4: the evidence of the adaptive schedule and the guard.
+  e.f64(c.last_probe_s);
+  e.vector(c.drift_rate);
+  e.vector(c.noise_var);
+  e.vector(c.guard_residual);
+  e.vector(c.guard_error);
+  e.i32(c.guard_probes);
+  e.vector(c.guard_gain);
 }
 
-ControllerState decode_controller(ByteReader& d) {
+ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
   ControllerState c;
   const std::int32_t phase = d.i32("phase");
   if (phase < 0 || phase > 2) throw std::runtime_error("run state: unknown phase " + std::to_string(phase));
@@ -85,6 +93,15 @@ ControllerState decode_controller(ByteReader& d) {
     c.predictor.set_state(predictor_state);
   }
   c.prediction = d.vector("prediction");
+  if (version >= 4) {
+    c.last_probe_s = d.f64("last_probe_s");
+    c.drift_rate = d.vector("drift_rate");
+    c.noise_var = d.vector("noise_var");
+    c.guard_residual = d.vector("guard_residual");
+    c.guard_error = d.vector("guard_error");
+    c.guard_probes = d.i32("guard_probes");
+    c.guard_gain = d.vector("guard_gain");
+  }  // version 3: the controller starts the evidence afresh (init_evidence)
   return c;
 }
 
@@ -115,12 +132,12 @@ RunState decode_run_state(const std::string& payload) {
     throw std::runtime_error("run state: checksum mismatch (the snapshot is damaged)");
   ByteReader d(body, "run state");
   const std::uint32_t version = d.read_header(kRunStateFormat);
-  if (version != kRunStateVersion)
-    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads " +
+  if (version != kRunStateVersion && version != 3)
+    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads 3 and " +
                              std::to_string(kRunStateVersion));
   RunState s;
   s.next_index = d.i64("next_index");
-  s.controller = decode_controller(d);
+  s.controller = decode_controller(d, version);
   s.baseline_fitted = d.boolean("baseline_fitted");
   s.baseline.input_names = d.strings("baseline inputs");
   s.baseline.output_names = d.strings("baseline outputs");

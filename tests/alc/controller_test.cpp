@@ -593,3 +593,86 @@ TEST_CASE("controller: a restored state continues bit for bit") {
     CHECK(restored.state().updates >= 3);
   }
 }
+
+TEST_CASE("controller: the adaptive schedule lengthens the Post-CP interval while the model holds and explains each decision") {
+  AlcParameters p = test_parameters();
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.min_interval_s = 0.5 * kHour;
+  p.max_interval_s = 4 * kHour;
+  Driver d(p);
+  CHECK(d.controller.schedule().name() == "adaptive");
+  d.run_until(30 * kHour);
+  // Every Post-CP decision is an interval event with its reason; the first is the paper's interval.
+  std::vector<ControllerEvent> adaptive;
+  for (const auto& e : d.of_type(ControllerEvent::Type::ProbeIntervalChange))
+    if (e.reason.rfind("adaptive", 0) == 0) adaptive.push_back(e);
+  REQUIRE(adaptive.size() >= 4);
+  CHECK(adaptive.front().interval_s == Approx(1 * kHour));
+  CHECK_THAT(adaptive.front().reason, Catch::Contains("no drift evidence") || Catch::Contains("E_X0C") ||
+                                          Catch::Contains("E_A0C"));
+  // The plant is the model's own structure: the residuals stay near the fit noise, the interval grows
+  // to the maximum.
+  CHECK(adaptive.back().interval_s == Approx(p.max_interval_s));
+  CHECK_THAT(adaptive.back().reason, Catch::Contains("maximum interval"));
+  for (const auto& e : adaptive) {
+    CHECK(e.interval_s >= p.min_interval_s);
+    CHECK(e.interval_s <= p.max_interval_s);
+  }
+  // The same plant with the paper's schedule probes more often after CP.
+  Driver paper(test_parameters());
+  paper.run_until(30 * kHour);
+  CHECK(d.probes < paper.probes);
+}
+
+TEST_CASE("controller: the adaptive schedule shortens the interval when the residuals drift") {
+  AlcParameters p = test_parameters();
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.acl_linear_um = 20.0;  // drift below the ACL: no NG, only the schedule reacts
+  p.acl_angular_um_per_m = 20.0;
+  p.min_interval_s = 0.25 * kHour;
+  Driver d(p);
+  d.run_until(3 * kHour);
+  // From now on an unmodelled drift grows on E_X0C: 6 µm per hour.
+  d.run_until(20 * kHour, [&](double t) { d.plant.offset_x = 6.0 * (t - 3 * kHour) / kHour; });
+  std::vector<double> intervals;
+  for (const auto& e : d.of_type(ControllerEvent::Type::ProbeIntervalChange))
+    if (e.reason.rfind("adaptive", 0) == 0 && e.time_s > 5 * kHour) intervals.push_back(e.interval_s);
+  REQUIRE(intervals.size() >= 3);
+  CHECK(intervals.back() < 1 * kHour);  // shorter than the paper's interval of 1 h
+}
+
+TEST_CASE("controller: the guard holds compensation off where the model does worse than none, and says so") {
+  for (const bool guard : {true, false}) {
+    AlcParameters p = test_parameters();
+    p.acl_linear_um = 1.0;
+    p.acl_angular_um_per_m = 1.0;
+    p.guard = guard;
+    Driver d(p);
+    d.run_until(2 * kHour + kMinute);
+    REQUIRE(d.controller.phase() != Phase::Calibration);
+    // From now on no identification succeeds (the model stays), and the errors vanish at every
+    // probe: the model's predictions are wrong, no compensation would be right.
+    AlcParameters frozen = p;
+    frozen.identification.min_measurements = 100000;
+    d.controller = d.controller.fork(frozen);
+    d.run_until(30 * kHour, [&](double) {
+      d.plant.offset_x = -3.0 * d.plant.lag;
+      d.plant.offset_a = 4.0 * d.plant.lag;
+    });
+    const auto guards = d.of_type(ControllerEvent::Type::Guard);
+    const Eigen::VectorXd model = d.controller.state().prediction;
+    const ControllerOutput out = d.controller.on_tick(d.t);
+    INFO("guard " << guard);
+    if (guard) {
+      REQUIRE_FALSE(guards.empty());
+      CHECK_THAT(guards.front().reason, Catch::Contains("held off"));
+      CHECK(guards.front().value > guards.front().limit);  // the model's residual beyond the error
+      CHECK((d.controller.state().guard_gain.array() == 0.0).all());
+      CHECK(out.prediction.isZero());
+      CHECK_FALSE(model.isZero());
+    } else {
+      CHECK(guards.empty());
+      CHECK(out.prediction == model);
+    }
+  }
+}

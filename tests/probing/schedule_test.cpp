@@ -78,3 +78,45 @@ TEST_CASE("accounting: productivity Pd of Eq. 7 with T_M = 95 s") {
   CHECK(std::isnan(productivity_percent(1, 0.0)));
   CHECK(to_string(Phase::NoGood) == "NG");
 }
+
+TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches the fraction of the ACL") {
+  AdaptiveScheduleOptions o;
+  o.paper.post_cp_interval_s = 2 * 3600.0;
+  o.fraction = 0.5;
+  o.min_interval_s = 1800.0;
+  o.max_interval_s = 12 * 3600.0;
+  const AdaptiveSchedule s(o);
+  CHECK(s.name() == "adaptive");
+  const std::vector<std::string> names = {"E_X0C", "E_A0C"};
+  ScheduleContext c;
+  c.now_s = 1000.0;
+  c.phase = Phase::PostCalibration;
+  c.output_names = &names;
+  // No evidence: the paper's interval.
+  CHECK(s.next_due(c) == 1000.0 + 2 * 3600.0);
+  CHECK_THAT(s.explain(c), Catch::Contains("no drift evidence"));
+  // E_X0C: (0.5 * 5)^2 - 0.25 = 6 µm² at 1e-3 µm²/s: 6000 s; E_A0C: (0.5 * 15)^2 = 56.25 at 1e-3: longer.
+  c.acl = Eigen::Vector2d(5.0, 15.0);
+  c.noise_var = Eigen::Vector2d(0.25, 0.0);
+  c.drift_rate = Eigen::Vector2d(1e-3, 1e-3);
+  CHECK(s.next_due(c) == Approx(1000.0 + 6000.0));
+  CHECK_THAT(s.explain(c), Catch::Contains("E_X0C") && Catch::Contains("1.67 h"));
+  // Bounds.
+  c.drift_rate = Eigen::Vector2d(1.0, 1.0);
+  CHECK(s.next_due(c) == 1000.0 + 1800.0);
+  CHECK_THAT(s.explain(c), Catch::Contains("minimum interval"));
+  c.drift_rate = Eigen::Vector2d(1e-9, 0.0);
+  CHECK(s.next_due(c) == 1000.0 + 12 * 3600.0);
+  // Noise beyond the budget: probe at the minimum interval.
+  c.drift_rate = Eigen::Vector2d(1e-3, 1e-3);
+  c.noise_var = Eigen::Vector2d(10.0, 0.0);
+  CHECK(s.next_due(c) == 1000.0 + 1800.0);
+  // CP and NG are the paper's; no probes after CP stays no probes.
+  c.phase = Phase::NoGood;
+  CHECK(s.next_due(c) == 1000.0 + o.paper.ng_interval_s);
+  CHECK(s.explain(c).empty());
+  AdaptiveScheduleOptions never = o;
+  never.paper.post_cp_interval_s = kNever;
+  c.phase = Phase::PostCalibration;
+  CHECK(std::isinf(AdaptiveSchedule(never).next_due(c)));
+}

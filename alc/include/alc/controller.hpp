@@ -57,11 +57,21 @@ struct AlcParameters {
   double learning_since_s = -kInf;         // [s] re-identify only on probes at or after this time (a point
                                            //     in time such as a repair or a new fixture); -inf: all data
   IdentificationOptions identification;    // window_start_s is set by the controller
+  // When to probe after CP (docs/adaptive.md): seed 004's fixed interval, or when the model is unsure.
+  enum class Schedule { Paper, Adaptive };
+  Schedule schedule_kind = Schedule::Paper;
+  double uncertainty_fraction = 0.5;       // [-] adaptive: probe when the predicted sigma reaches this x ACL
+  double min_interval_s = 1800.0;          // [s] adaptive: bounds of the Post-CP interval
+  double max_interval_s = 12 * 3600.0;     // [s]
+  bool guard = true;                       // hold an output's compensation off while, on recent Post-CP probes,
+                                           // it left a larger error than no compensation (docs/adaptive.md)
 
   // Empty if valid, else the first violated constraint naming the field and value.
   std::string validate() const;
   // The probe schedule of these parameters (seed 004's fixed intervals per phase).
   probing::PaperScheduleOptions schedule() const;
+  // The policy of schedule_kind: PaperSchedule(schedule()) or AdaptiveSchedule.
+  std::shared_ptr<const probing::SchedulePolicy> schedule_policy() const;
 };
 
 // What a probe cycle measured. In closed loop the probe sees the error left after compensation;
@@ -73,15 +83,15 @@ struct ProbeMeasurement {
 };
 
 struct ControllerEvent {
-  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach, OutlierRejected };
+  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach, OutlierRejected, Guard };
   Type type = Type::PhaseChange;
   double time_s = 0.0;           // [s]
   Phase from = Phase::Calibration;
   Phase to = Phase::Calibration;
   double interval_s = 0.0;       // [s] new probe interval (ProbeIntervalChange)
   std::string output;            // error name (AclBreach)
-  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach)
-  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach)
+  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the model's recent residual (Guard)
+  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the recent error without compensation (Guard)
   std::string reason;            // human-readable why
 };
 std::string_view to_string(ControllerEvent::Type type);
@@ -89,7 +99,8 @@ std::string_view to_string(ControllerEvent::Type type);
 struct ControllerOutput {
   bool accepted = true;                // false: the sample or probe was rejected (reason), nothing changed
   std::string reason;                  // why it was rejected
-  Eigen::VectorXd prediction;          // [µm] / [µm/m] predicted errors; zero while no model exists
+  Eigen::VectorXd prediction;          // [µm] / [µm/m] the errors to compensate: the model's prediction, zero
+                                       //     while no model exists and where the guard holds compensation off
   double next_probe_due_s = kInf;      // [s] inf: no probe scheduled
   std::vector<ControllerEvent> events;
   std::optional<FitResult> fit;        // the identification that ran in this cycle, if any
@@ -121,8 +132,19 @@ struct ControllerState {
   std::vector<ProbeRecord> probes;     // probe records since history row 0 (error = measured + compensation)
   bool has_model = false;
   ModelPredictor predictor;            // current model with its running state
-  Eigen::VectorXd prediction;          // latest prediction
+  Eigen::VectorXd prediction;          // latest prediction of the model
+  // Evidence from the probes after CP (docs/adaptive.md), per output:
+  double last_probe_s = -kInf;         // [s] time of the latest probe
+  Eigen::VectorXd drift_rate;          // [unit²/s] growth of the residual variance after a probe (NaN: unknown)
+  Eigen::VectorXd noise_var;           // [unit²] residual variance of the latest usable fit
+  Eigen::VectorXd guard_residual;      // [unit²] decaying sum of squared residuals (model) of Post-CP probes
+  Eigen::VectorXd guard_error;         // [unit²] the same of the errors themselves (no compensation)
+  int guard_probes = 0;                // Post-CP probes in the sums
+  Eigen::VectorXd guard_gain;          // [-] 1: compensate with the prediction, 0: held off by the guard
 };
+
+// Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1) where it is not.
+void init_evidence(ControllerState& state, std::size_t outputs);
 
 class Controller {
  public:
@@ -166,6 +188,12 @@ class Controller {
  private:
   void advance(double time_s, ControllerOutput& out);
   void set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason);
+  // next_probe_due_s after a decision at `time_s`, with an event when the policy explains it.
+  void schedule_next(double time_s, ControllerOutput& out);
+  // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
+  void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
+  // The prediction with the guard applied (what is compensated).
+  Eigen::VectorXd compensated() const;
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
   // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
   void enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason, const std::string& interval_reason);

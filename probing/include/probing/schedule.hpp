@@ -15,6 +15,8 @@
 #include <limits>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace alc {
 
@@ -34,6 +36,12 @@ struct ScheduleContext {
   double phase_start_s = 0.0;      // [s] when that phase began
   double last_update_s = -kNever;  // [s] time of the last model update (-inf: none yet)
   int ng_probes = 0;               // probes taken in the current NG phase
+  // The evidence an adaptive policy weighs (per output; empty before CP ends): how fast the variance
+  // of the compensated error grows after a probe, the residual variance of the latest fit, the ACL.
+  Eigen::VectorXd drift_rate;      // [unit²/s] NaN: not known
+  Eigen::VectorXd noise_var;       // [unit²]
+  Eigen::VectorXd acl;             // [µm] or [µm/m]
+  const std::vector<std::string>* output_names = nullptr;  // for reasons
 };
 
 // What the controller does after an NG probe.
@@ -52,6 +60,9 @@ class SchedulePolicy {
   virtual double interval(Phase phase) const = 0;
   // [s] When the next probe is due after the decision at ctx.now_s; inf: none.
   virtual double next_due(const ScheduleContext& ctx) const { return ctx.now_s + interval(ctx.phase); }
+  // Why next_due(ctx) is what it is, for a policy whose interval varies (an event per decision);
+  // empty for a fixed interval (the interval events say it).
+  virtual std::string explain(const ScheduleContext& /*ctx*/) const { return {}; }
   // Whether a breach in Post-CP starts an NG burst (false: identify at the breach, stay in Post-CP).
   virtual bool ng_burst() const = 0;
   // After the NG probe number `ctx.ng_probes` (1 = the first), `breaching`: it broke the ACL.
@@ -86,6 +97,31 @@ class PaperSchedule : public SchedulePolicy {
 
  private:
   PaperScheduleOptions options_;
+};
+
+// Probe when the model is unsure (docs/adaptive.md): after CP, the next probe is due when the predicted
+// standard deviation of the compensated error of some output, sqrt(noise_var + drift_rate * dt), reaches
+// `fraction` x its ACL, within [min_interval_s, max_interval_s]. CP, the NG burst and the breach
+// confirmation are seed 004's (PaperSchedule); without evidence yet, the Post-CP interval is the paper's.
+struct AdaptiveScheduleOptions {
+  PaperScheduleOptions paper;
+  double fraction = 0.5;                   // [-] of the ACL
+  double min_interval_s = 1800.0;          // [s]
+  double max_interval_s = 12 * 3600.0;     // [s]
+};
+
+class AdaptiveSchedule : public PaperSchedule {
+ public:
+  explicit AdaptiveSchedule(AdaptiveScheduleOptions options) : PaperSchedule(options.paper), adaptive_(options) {}
+  std::string_view name() const override { return "adaptive"; }
+  double next_due(const ScheduleContext& ctx) const override;
+  std::string explain(const ScheduleContext& ctx) const override;
+  const AdaptiveScheduleOptions& adaptive_options() const { return adaptive_; }
+
+ private:
+  // [s] the interval and the output that sets it (-1: none, the paper's interval or a bound).
+  std::pair<double, int> post_cp_interval(const ScheduleContext& ctx) const;
+  AdaptiveScheduleOptions adaptive_;
 };
 
 // Probe accounting of Eq. 7 of seed 004: M probe cycles of T_M each over a run of T_total.

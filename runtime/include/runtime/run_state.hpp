@@ -5,7 +5,7 @@
 // controller's plain values, its model and predictor state, the probes of the learning window, and
 // the replay's baseline. It does NOT hold the input samples: on restore, the samples the controller
 // keeps (ControllerState::history, rows history_first_index .. samples-1 of the run) come back from
-// where they were stored (the history's input_samples). Format "alc.run-state" version 3, in the
+// where they were stored (the history's input_samples). Format "alc.run-state" version 4 (3 is read too), in the
 // little-endian byte format of common/byte_codec.hpp, ending with an FNV-1a 64 checksum of all bytes
 // before it; decode throws std::runtime_error on a damaged, truncated or foreign payload.
 #include <cstdint>
@@ -17,7 +17,7 @@
 namespace alc::runtime {
 
 inline constexpr const char* kRunStateFormat = "alc.run-state";
-inline constexpr std::uint32_t kRunStateVersion = 3;
+inline constexpr std::uint32_t kRunStateVersion = 4;  // 4: adaptive and guard evidence; 3 is read too
 
 struct RunState {
   std::int64_t next_index = 0;        // source index to continue from
