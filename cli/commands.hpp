@@ -45,6 +45,9 @@ std::vector<std::string> load_case_names(const std::string& selector);
 // A --seed value: decimal digits only, 0 ... 2^64 - 1 (CLI11 would wrap "-1"). Throws UsageError.
 std::uint64_t parse_seed(const std::string& text);
 
+// alc supervise: the supervisor on an MQTT broker (cli/cmd_supervise.cpp).
+void add_supervise_command(CLI::App& app);
+
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);
 

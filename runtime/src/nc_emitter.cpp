@@ -63,6 +63,19 @@ NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_name
 
 void NcCommandObserver::on_cycle(const Cycle& cycle) { handle(cycle); }
 
+void NcCommandObserver::restore(const State& state) {
+  recorder_.set_in_force(state.in_force);
+  last_ = state.last;
+  in_force_ = state.in_force;
+  behind_ = state.behind;
+  next_periodic_s_ = state.next_periodic_s;
+}
+
+void NcCommandObserver::forget_commands() {
+  commands_.clear();
+  recorder_.clear_log();
+}
+
 void NcCommandObserver::handle(const Cycle& cycle) {
   const ControllerOutput& out = cycle.out();
   const double time_s = cycle.time_s();

@@ -85,34 +85,19 @@ std::string Replay::encode_state() const {
 }
 
 void Replay::restore(const storage::ControllerSnapshot& snapshot) {
-  RunState s = decode_run_state(snapshot.payload);
+  RunState s = load_run_state(options_.db, *run_id(), snapshot.payload, scenario_.input_names.size());
   if (s.next_index < 0 || static_cast<std::size_t>(s.next_index) > scenario_.samples())
     throw std::runtime_error(options_.db.string() + ": the snapshot continues at row " +
                              std::to_string(s.next_index) + ", beyond the " + std::to_string(scenario_.samples()) +
                              " rows of " + options_.source);
-  // The samples the controller keeps come back from the history; the evaluation is rebuilt from the
-  // stored predictions (the prediction active at each evaluated row).
+  // The evaluation is rebuilt from the stored predictions (the prediction active at each evaluated row).
   const storage::HistoryReader reader(options_.db);
   const auto samples = reader.input_samples(*run_id());
   const auto predictions = reader.predictions(*run_id());
-  if (static_cast<std::int64_t>(samples.size()) != s.controller.samples || predictions.size() != samples.size())
+  if (predictions.size() != samples.size())
     throw std::runtime_error(options_.db.string() + ": run " + std::to_string(*run_id()) + " stores " +
                              std::to_string(samples.size()) + " samples and " + std::to_string(predictions.size()) +
-                             " predictions before its snapshot, which counts " +
-                             std::to_string(s.controller.samples));
-  const std::int64_t first = s.controller.history_first_index;
-  const auto cols = static_cast<Eigen::Index>(scenario_.input_names.size());
-  std::vector<double> time_s;
-  InputMatrix inputs(static_cast<Eigen::Index>(samples.size()) - first, cols);
-  for (std::size_t k = static_cast<std::size_t>(first); k < samples.size(); ++k) {
-    const auto& rec = samples[k];
-    if (static_cast<Eigen::Index>(rec.values.size()) != cols)
-      throw std::runtime_error(options_.db.string() + ": stored sample " + std::to_string(rec.sample_index) +
-                               " has " + std::to_string(rec.values.size()) + " inputs");
-    time_s.push_back(rec.time_s);
-    for (Eigen::Index c = 0; c < cols; ++c) inputs(static_cast<Eigen::Index>(time_s.size()) - 1, c) = rec.values[static_cast<std::size_t>(c)];
-  }
-  restore_history(s.controller, std::move(time_s), std::move(inputs));
+                             " predictions before its snapshot");
   evaluation_.restore_baseline(s.baseline_fitted, s.baseline);
   const double cp_end_s = s.controller.cp_end_s;
   for (std::size_t k = 0; k < samples.size(); ++k) {

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "common/byte_codec.hpp"
+#include "storage/history_reader.hpp"
 #include "storage/model_json.hpp"
 
 namespace alc::runtime {
@@ -160,6 +161,31 @@ void restore_history(ControllerState& state, std::vector<double> time_s, InputMa
                              std::to_string(need) + " of " + std::to_string(state.history.input_names.size()));
   state.history.time_s = std::move(time_s);
   state.history.inputs = std::move(inputs);
+}
+
+RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const std::string& payload,
+                        std::size_t inputs) {
+  RunState s = decode_run_state(payload);
+  const storage::HistoryReader reader(db);
+  const auto samples = reader.input_samples(run);
+  if (static_cast<std::int64_t>(samples.size()) != s.controller.samples)
+    throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores " + std::to_string(samples.size()) +
+                             " samples before its snapshot, which counts " + std::to_string(s.controller.samples));
+  const std::int64_t first = s.controller.history_first_index;
+  const auto cols = static_cast<Eigen::Index>(inputs);
+  std::vector<double> time_s;
+  InputMatrix matrix(static_cast<Eigen::Index>(samples.size()) - first, cols);
+  for (std::size_t k = static_cast<std::size_t>(first); k < samples.size(); ++k) {
+    const auto& rec = samples[k];
+    if (static_cast<Eigen::Index>(rec.values.size()) != cols)
+      throw std::runtime_error(db.string() + ": stored sample " + std::to_string(rec.sample_index) + " has " +
+                               std::to_string(rec.values.size()) + " inputs");
+    time_s.push_back(rec.time_s);
+    for (Eigen::Index c = 0; c < cols; ++c)
+      matrix(static_cast<Eigen::Index>(time_s.size()) - 1, c) = rec.values[static_cast<std::size_t>(c)];
+  }
+  restore_history(s.controller, std::move(time_s), std::move(matrix));
+  return s;
 }
 
 }  // namespace alc::runtime

@@ -30,6 +30,11 @@ class CommandRecorder {
   AxisOffsets current(int work_offset) const { return gate_.current(work_offset); }
   const std::vector<NcCommand>& to_send() const { return to_send_; }            // split steps expanded
   const std::vector<SafetyDecision>& decisions() const { return decisions_; }   // one per record()
+  // Forgets to_send() and decisions() (the offsets in force stay): bounded memory for a long run.
+  void clear_log() {
+    to_send_.clear();
+    decisions_.clear();
+  }
 
  private:
   SafetyGate gate_;

@@ -79,6 +79,21 @@ class NcCommandObserver : public Observer {
   double max_non_compensable_um_per_m() const { return max_non_compensable_um_per_m_; }
   bool maps_any_error() const { return maps_any_; }
 
+  // What the emission rule remembers between cycles, for a run that continues after a restart (the
+  // supervisor): the last emitted request, the offsets in force, stepping, the next periodic moment.
+  struct State {
+    nc::AxisOffsets last;
+    nc::AxisOffsets in_force;
+    bool behind = false;
+    double next_periodic_s = -kInf;
+  };
+  State state() const { return {last_, in_force_, behind_, next_periodic_s_}; }
+  // Continues from `state` (the gate takes state.in_force as the offsets in force).
+  void restore(const State& state);
+  // Drops the commands and decisions kept so far (commands(), recorder()): a long-running user keeps
+  // memory bounded; counts and the state stay.
+  void forget_commands();
+
  private:
   void handle(const Cycle& cycle);
   nc::SafetyDecision emit(const nc::NcCommand& command, double time_s);

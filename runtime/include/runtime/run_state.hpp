@@ -9,10 +9,12 @@
 // little-endian byte format of common/byte_codec.hpp, ending with an FNV-1a 64 checksum of all bytes
 // before it; decode throws std::runtime_error on a damaged, truncated or foreign payload.
 #include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "alc/controller.hpp"
 #include "alc/static_regression.hpp"
+#include "storage/records.hpp"
 
 namespace alc::runtime {
 
@@ -37,5 +39,11 @@ std::int64_t history_rows(const ControllerState& state);
 // Puts those samples back (time_s and inputs, oldest first); throws std::runtime_error when their
 // number or width does not match the state.
 void restore_history(ControllerState& state, std::vector<double> time_s, InputMatrix inputs);
+
+// Decodes the snapshot `payload` of `run` in the history `db` and puts back the input samples its
+// controller keeps from the run's stored input samples (`inputs` values each). Throws
+// std::runtime_error naming the database when the stored samples do not match the state.
+RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const std::string& payload,
+                        std::size_t inputs);
 
 }  // namespace alc::runtime

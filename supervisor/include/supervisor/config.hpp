@@ -1,0 +1,76 @@
+#pragma once
+// The supervisor's configuration (TOML): machine, broker, signals, history, controller parameters
+// (the same names and units as `alc replay`'s options), optional NC. docs/supervisor.md lists every key.
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "alc/controller.hpp"
+#include "nc_interface/machine_config.hpp"
+#include "runtime/parameter_options.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::supervisor {
+
+// A configuration that cannot be used: the file, the key (dotted) and its value, and why.
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(const std::string& file, const std::string& key, const std::string& value, const std::string& reason);
+};
+
+struct MqttConfig {
+  std::string host = "127.0.0.1";
+  int port = 1883;
+  std::string prefix;                 // default "alc/<machine_id>"
+  std::string client_id;              // default "alc-<machine_id>"
+  std::optional<std::string> username;
+  std::optional<std::filesystem::path> password_file;  // first line is the password
+  std::optional<std::filesystem::path> tls_ca_file;    // TLS to the broker when given
+  int keepalive_s = 30;
+  std::size_t max_payload_bytes = 65536;  // larger messages are rejected unread
+};
+
+struct SignalsConfig {
+  std::vector<std::string> inputs;
+  std::vector<std::string> outputs;
+  double stale_after_s = 300.0;       // [s] wall clock without a sample: stale
+  double probe_timeout_s = 1800.0;    // [s] machine time after the request: the probe is given up
+};
+
+struct HistoryConfig {
+  std::filesystem::path db;
+  double snapshot_every_s = 3600.0;   // [s] machine time between controller snapshots
+  storage::Durability durability = storage::Durability::Process;
+};
+
+struct NcConfig {
+  std::optional<std::filesystem::path> machine;  // machine config (chain, work offset, safety limits)
+  std::string sink = "none";                     // only "none" so far: offsets go out over MQTT only
+};
+
+struct LogConfig {
+  std::optional<std::string> level;   // overrides --log-level
+  std::optional<std::string> file;    // rotating log file
+};
+
+struct SupervisorConfig {
+  std::filesystem::path file;         // where it was read from
+  std::string machine_id;
+  MqttConfig mqtt;
+  SignalsConfig signals;
+  HistoryConfig history;
+  runtime::OptionTexts controller_options;  // as written, for the record
+  AlcParameters parameters;
+  NcConfig nc;
+  nc::MachineConfig machine;          // of nc.machine, else the built-in defaults
+  LogConfig log;
+};
+
+// Reads and checks the whole file; relative paths are taken from the file's directory.
+// Throws ConfigError.
+SupervisorConfig read_supervisor_config(const std::filesystem::path& file);
+SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std::filesystem::path& file);
+
+}  // namespace alc::supervisor

@@ -1,0 +1,51 @@
+#pragma once
+// The supervisor's inbox: every accepted message (sample or probe result), committed before it is
+// acted on, in the order it was accepted; and the supervisor's own state at each controller
+// snapshot. A restart restores the latest snapshot of the history and processes the inbox entries
+// after it again, so nothing accepted is lost and the decisions are those of an uninterrupted run.
+// Entries before the latest snapshot are deleted (bounded storage). SQLite (WAL) in its own file.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+struct sqlite3;
+
+namespace alc::supervisor {
+
+struct InboxEntry {
+  std::int64_t seq = 0;
+  std::string kind;     // "sample" or "probe/result"
+  std::string payload;  // as received
+};
+
+class Inbox {
+ public:
+  explicit Inbox(const std::filesystem::path& path);
+  ~Inbox();
+  Inbox(const Inbox&) = delete;
+  Inbox& operator=(const Inbox&) = delete;
+
+  // Appends and commits; returns its sequence number.
+  std::int64_t append(const std::string& kind, const std::string& payload);
+  // Entries with seq >= first, in order.
+  std::vector<InboxEntry> from(std::int64_t first) const;
+  // The sequence number the next append gets.
+  std::int64_t next_seq() const;
+  // Stores the supervisor's state for the snapshot that continues at `seq` (before the snapshot is
+  // saved), then prune(seq) once the snapshot is committed: entries and states before `seq` go.
+  void save_state(std::int64_t seq, const std::string& state);
+  void prune(std::int64_t before);
+  std::optional<std::string> state_at(std::int64_t seq) const;
+  // Empties the inbox (a new run).
+  void clear();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  void exec(const std::string& sql) const;
+  std::filesystem::path path_;
+  sqlite3* db_ = nullptr;
+};
+
+}  // namespace alc::supervisor

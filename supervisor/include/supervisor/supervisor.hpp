@@ -1,0 +1,132 @@
+#pragma once
+// The supervisor's core, event-driven and without network I/O: messages of its topics come in
+// (on_message), what it publishes goes out through a Bus. It drives the same controller, driver and
+// observers as a replay (runtime/): the history recorder, the run lifecycle (snapshots, resume) and
+// the NC observer with its safety gate. docs/supervisor.md describes the behaviour; in short:
+// - a sample is accepted (journaled in the inbox, then acted on) or rejected with an event;
+// - when a sample reaches the due time, a probe request goes out and the following samples are held
+//   (stored in the inbox, not yet given to the controller) until the result arrives: the samples up
+//   to the probe's time_s, then the probe, then the rest are processed, so a late result is learned
+//   from at its own time and the decisions depend only on the order of the samples; offsets do not
+//   change during a probe cycle (the probe measures with one compensation, the one added back);
+// - a result that does not come within probe_timeout_s of machine time is given up and reported.
+#include <deque>
+#include <nlohmann/json.hpp>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alc/controller.hpp"
+#include "runtime/driver.hpp"
+#include "supervisor/config.hpp"
+#include "supervisor/messages.hpp"
+
+namespace alc::runtime {
+class HistoryRecorder;
+class NcCommandObserver;
+class RunLifecycle;
+}  // namespace alc::runtime
+namespace alc::storage {
+class HistoryWriter;
+}
+
+namespace alc::supervisor {
+
+class Inbox;
+
+class Bus {
+ public:
+  virtual ~Bus() = default;
+  // `topic` below the prefix: "offsets", "probe/request", "state", "event".
+  virtual void publish(const std::string& topic, const std::string& payload, bool retained) = 0;
+};
+
+struct SupervisorCounts {
+  std::int64_t received = 0;       // samples accepted (fed or held)
+  std::int64_t rejected = 0;       // messages rejected
+  std::int64_t requests = 0;       // probe requests issued
+  std::int64_t timeouts = 0;       // probe requests given up
+};
+
+class Supervisor {
+ public:
+  // Opens the history (resuming the run of this machine if one is unfinished; a run begun with
+  // another controller configuration is refused with runtime::ResumeRefused) and its inbox, and
+  // processes the inbox entries after the latest snapshot again.
+  Supervisor(const SupervisorConfig& config, Bus& bus, std::string software_version);
+  ~Supervisor();
+  Supervisor(const Supervisor&) = delete;
+  Supervisor& operator=(const Supervisor&) = delete;
+
+  // A message of PREFIX/<topic> ("sample", "probe/result") received at wall-clock time wall_s [s].
+  void on_message(const std::string& topic, const std::string& payload, double wall_s);
+  // Wall-clock time passes: stale detection.
+  void on_wall_clock(double wall_s);
+  // After (re)connecting: the state (online), the offsets in force and an outstanding request.
+  void announce();
+  // The retained state message.
+  std::string state_json(bool online) const;
+  // Clean stop: a snapshot when nothing is held, the run Stopped (resumable), the history closed.
+  void stop();
+
+  const SupervisorCounts& counts() const { return counts_; }
+  bool stale() const { return stale_; }
+  const Controller& controller() const { return controller_; }
+  std::size_t held() const { return held_.size(); }
+
+ private:
+  class Tap;
+  struct Outstanding {
+    std::int64_t id = 0;
+    double due_s = 0.0;
+    double trigger_s = 0.0;   // time of the sample that reached the due time
+    Eigen::VectorXd compensation;  // in force when it was asked for: what the probe measures with
+  };
+  void process(const std::string& topic, const std::string& payload, std::int64_t seq_if_recovering);
+  void reject(const std::string& topic, const std::string& reason);
+  void drain();
+  void feed(const SampleMessage& m);
+  void apply_result();
+  void request_probe(double trigger_s);
+  void publish_request();
+  void publish_offsets(double time_s);
+  void event(nlohmann::json e);
+  void publish(const std::string& topic, const std::string& payload, bool retained);
+  bool idle() const { return !outstanding_ && held_.empty() && !result_; }
+  std::string extras_json() const;
+  void restore_extras(const std::string& json);
+  void begin_or_resume();
+
+  const SupervisorConfig& config_;
+  Bus& bus_;
+  std::string software_version_;
+  Controller controller_;
+  runtime::Driver driver_;
+  std::unique_ptr<storage::HistoryWriter> writer_;
+  std::unique_ptr<Inbox> inbox_;
+  std::unique_ptr<runtime::RunLifecycle> lifecycle_;
+  std::unique_ptr<runtime::HistoryRecorder> recorder_;
+  std::unique_ptr<runtime::NcCommandObserver> nc_;
+  std::unique_ptr<Tap> tap_;
+  std::vector<bool> cancellable_;          // per output: an axis offset cancels it
+  Eigen::VectorXd compensation_;           // per output: the compensation in force
+  Eigen::VectorXd prediction_;             // latest prediction
+  bool offsets_changed_ = false;
+  double last_offsets_s_ = -kInf;          // [s] machine time of the last offsets message
+  std::optional<Outstanding> outstanding_;
+  std::optional<ProbeResultMessage> result_;
+  std::deque<SampleMessage> held_;
+  double last_received_s_ = -kInf;         // [s] latest accepted sample (fed or held)
+  std::int64_t next_id_ = 1;
+  std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
+  std::int64_t entry_seq_ = 0;             // inbox entry being processed
+  std::int64_t snapshots_ = 0;             // snapshots saved by this process
+  bool recovering_ = false;
+  bool stale_ = false;
+  double last_sample_wall_s_ = 0.0;
+  bool stopped_ = false;
+  SupervisorCounts counts_;
+};
+
+}  // namespace alc::supervisor

@@ -1,0 +1,221 @@
+#include "supervisor/config.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "common/number_text.hpp"
+
+namespace alc::supervisor {
+
+ConfigError::ConfigError(const std::string& file, const std::string& key, const std::string& value,
+                         const std::string& reason)
+    : std::runtime_error(file + ": key '" + key + "'" + (value.empty() ? "" : ", value " + value) + ": " + reason) {}
+
+namespace {
+
+std::string node_text(const toml::node* node) {
+  if (!node) return "";
+  if (const auto* s = node->as_string()) return "\"" + s->get() + "\"";
+  std::ostringstream o;
+  node->visit([&o](const auto& n) { o << n; });
+  return o.str();
+}
+
+// One table of the file; remembers the keys read so that unknown ones are reported.
+class Section {
+ public:
+  Section(const toml::table* t, std::string name, std::string file) : t_(t), name_(std::move(name)), file_(std::move(file)) {}
+  [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
+    throw ConfigError(file_, full(key), node_text(t_ ? t_->get(key) : nullptr), reason);
+  }
+  std::string full(const std::string& key) const { return name_.empty() ? key : name_ + "." + key; }
+  const toml::node* get(const std::string& key) {
+    known_.insert(key);
+    return t_ ? t_->get(key) : nullptr;
+  }
+  std::optional<std::string> text(const std::string& key) {
+    const toml::node* n = get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_string() || n->as_string()->get().empty()) fail(key, "not a non-empty string");
+    return n->as_string()->get();
+  }
+  std::string required_text(const std::string& key) {
+    auto v = text(key);
+    if (!v) fail(key, "missing");
+    return *v;
+  }
+  std::optional<double> number(const std::string& key, double min_exclusive) {
+    const toml::node* n = get(key);
+    if (!n) return std::nullopt;
+    const auto v = n->value<double>();
+    if (!v || !std::isfinite(*v)) fail(key, "not a finite number");
+    if (!(*v > min_exclusive)) fail(key, "must be > " + common::shortest_text(min_exclusive));
+    return *v;
+  }
+  std::optional<long long> integer(const std::string& key, long long lo, long long hi) {
+    const toml::node* n = get(key);
+    if (!n) return std::nullopt;
+    const auto* i = n->as_integer();
+    if (!i || i->get() < lo || i->get() > hi)
+      fail(key, "not a whole number from " + std::to_string(lo) + " to " + std::to_string(hi));
+    return i->get();
+  }
+  std::vector<std::string> names(const std::string& key) {
+    const toml::node* n = get(key);
+    if (!n) fail(key, "missing");
+    const toml::array* a = n->as_array();
+    if (!a || a->empty()) fail(key, "not a non-empty array of names");
+    std::vector<std::string> out;
+    std::set<std::string> seen;
+    for (const toml::node& e : *a) {
+      if (!e.is_string() || e.as_string()->get().empty()) fail(key, "not an array of non-empty strings");
+      if (!seen.insert(e.as_string()->get()).second) fail(key, "names " + node_text(&e) + " twice");
+      out.push_back(e.as_string()->get());
+    }
+    return out;
+  }
+  Section sub(const std::string& key) {
+    const toml::node* n = get(key);
+    if (n && !n->is_table()) fail(key, "not a table");
+    return Section(n ? n->as_table() : nullptr, full(key), file_);
+  }
+  void no_unknown_keys() const {
+    if (!t_) return;
+    for (const auto& [k, v] : *t_)
+      if (!known_.count(std::string(k.str()))) fail(std::string(k.str()), "unknown key");
+  }
+  const toml::table* table() const { return t_; }
+  const std::string& file() const { return file_; }
+
+ private:
+  const toml::table* t_;
+  std::string name_;
+  std::string file_;
+  std::set<std::string> known_;
+};
+
+std::filesystem::path relative_to(const std::filesystem::path& file, const std::string& p) {
+  const std::filesystem::path path(p);
+  return path.is_absolute() ? path : file.parent_path() / path;
+}
+
+// [controller]: each key is an option of `alc replay` with its value as that option takes it.
+void read_controller(Section s, SupervisorConfig& c) {
+  if (!s.table()) {
+    c.parameters = runtime::parameters_of({});
+    return;
+  }
+  for (const auto& [k, node] : *s.table()) {
+    const std::string key(k.str());
+    std::string text;
+    if (const auto* i = node.as_integer()) text = std::to_string(i->get());
+    else if (const auto* f = node.as_floating_point()) text = common::shortest_text(f->get());
+    else if (const auto* t = node.as_string()) text = t->get();
+    else if (const auto* b = node.as_boolean()) text = b->get() ? "true" : "false";
+    else s.fail(key, "not a number, string or true/false");
+    if (!runtime::find_parameter_option(key)) s.fail(key, "not an option of alc replay (see alc replay --help)");
+    AlcParameters p;
+    try {
+      runtime::set_parameter(p, key, text);
+    } catch (const std::invalid_argument& e) {
+      s.fail(key, e.what());
+    }
+    c.controller_options.emplace_back(key, text);
+  }
+  try {
+    c.parameters = runtime::parameters_of(c.controller_options);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(s.file(), "controller", "", e.what());
+  }
+}
+
+}  // namespace
+
+SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std::filesystem::path& file) {
+  const std::string name = file.string();
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, name);
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(name, "(syntax)", "",
+                      std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
+  }
+  SupervisorConfig c;
+  c.file = file;
+  Section top(&root, "", name);
+  c.machine_id = top.required_text("machine_id");
+
+  Section m = top.sub("mqtt");
+  if (auto v = m.text("host")) c.mqtt.host = *v;
+  if (auto v = m.integer("port", 1, 65535)) c.mqtt.port = static_cast<int>(*v);
+  c.mqtt.prefix = m.text("prefix").value_or("alc/" + c.machine_id);
+  if (c.mqtt.prefix.find_first_of("#+") != std::string::npos || c.mqtt.prefix.back() == '/')
+    m.fail("prefix", "must not contain # or + nor end with /");
+  c.mqtt.client_id = m.text("client_id").value_or("alc-" + c.machine_id);
+  c.mqtt.username = m.text("username");
+  if (auto v = m.text("password_file")) c.mqtt.password_file = relative_to(file, *v);
+  if (c.mqtt.password_file && !c.mqtt.username) m.fail("password_file", "needs mqtt.username");
+  if (auto v = m.text("tls_ca_file")) c.mqtt.tls_ca_file = relative_to(file, *v);
+  if (auto v = m.integer("keepalive_s", 5, 3600)) c.mqtt.keepalive_s = static_cast<int>(*v);
+  if (auto v = m.integer("max_payload_bytes", 256, 16 * 1024 * 1024))
+    c.mqtt.max_payload_bytes = static_cast<std::size_t>(*v);
+  m.no_unknown_keys();
+
+  Section s = top.sub("signals");
+  c.signals.inputs = s.names("inputs");
+  c.signals.outputs = s.names("outputs");
+  for (const auto& o : c.signals.outputs)
+    if (o.rfind("E_", 0) != 0) s.fail("outputs", "'" + o + "' does not start with E_");
+  if (auto v = s.number("stale_after_s", 0.0)) c.signals.stale_after_s = *v;
+  if (auto v = s.number("probe_timeout_s", 0.0)) c.signals.probe_timeout_s = *v;
+  s.no_unknown_keys();
+
+  Section h = top.sub("history");
+  c.history.db = relative_to(file, h.required_text("db"));
+  if (auto v = h.number("snapshot_every_h", 0.0)) c.history.snapshot_every_s = *v * 3600.0;
+  if (auto v = h.text("durability")) {
+    if (*v == "process") c.history.durability = storage::Durability::Process;
+    else if (*v == "power") c.history.durability = storage::Durability::Power;
+    else h.fail("durability", "not \"process\" or \"power\"");
+  }
+  h.no_unknown_keys();
+
+  read_controller(top.sub("controller"), c);
+
+  Section n = top.sub("nc");
+  if (auto v = n.text("machine")) {
+    c.nc.machine = relative_to(file, *v);
+    try {
+      c.machine = nc::read_machine_config(*c.nc.machine);
+    } catch (const nc::ConfigError& e) {
+      throw ConfigError(name, "nc.machine", "\"" + *v + "\"", e.what());
+    }
+  }
+  if (auto v = n.text("sink")) {
+    if (*v != "none")
+      n.fail("sink", "only \"none\" is supported so far (offsets go out on the MQTT topic PREFIX/offsets)");
+    c.nc.sink = *v;
+  }
+  n.no_unknown_keys();
+
+  Section l = top.sub("log");
+  c.log.level = l.text("level");
+  c.log.file = l.text("file");
+  if (c.log.file) c.log.file = relative_to(file, *c.log.file).string();
+  l.no_unknown_keys();
+  top.no_unknown_keys();
+  return c;
+}
+
+SupervisorConfig read_supervisor_config(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw ConfigError(file.string(), "(file)", "", "cannot be read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_supervisor_config(text.str(), file);
+}
+
+}  // namespace alc::supervisor

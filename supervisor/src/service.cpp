@@ -1,0 +1,169 @@
+#include "supervisor/service.hpp"
+
+#include <mosquitto.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "common/log.hpp"
+#include "supervisor/supervisor.hpp"
+
+namespace alc::supervisor {
+
+namespace {
+
+std::shared_ptr<spdlog::logger> logger() { return log::get("supervisor"); }
+
+double wall_now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string password_of(const SupervisorConfig& c) {
+  std::ifstream in(*c.mqtt.password_file);
+  std::string line;
+  if (!in || !std::getline(in, line) || line.empty())
+    throw ConfigError(c.file.string(), "mqtt.password_file", "\"" + c.mqtt.password_file->string() + "\"",
+                      "cannot be read or its first line is empty");
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+// libmosquitto, driven from this thread (mosquitto_loop): callbacks run inside loop().
+class MqttBus : public Bus {
+ public:
+  MqttBus(const SupervisorConfig& c, const std::string& offline) : c_(c) {
+    mosquitto_lib_init();
+    m_ = mosquitto_new(c.mqtt.client_id.c_str(), /*clean_session=*/false, this);
+    if (!m_) throw std::runtime_error("mqtt: cannot create a client");
+    mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    if (c.mqtt.username) {
+      const std::string pw = c.mqtt.password_file ? password_of(c) : std::string();
+      mosquitto_username_pw_set(m_, c.mqtt.username->c_str(), c.mqtt.password_file ? pw.c_str() : nullptr);
+    }
+    if (c.mqtt.tls_ca_file)
+      check(mosquitto_tls_set(m_, c.mqtt.tls_ca_file->c_str(), nullptr, nullptr, nullptr, nullptr), "tls_set");
+    const std::string will_topic = c.mqtt.prefix + "/state";
+    check(mosquitto_will_set(m_, will_topic.c_str(), static_cast<int>(offline.size()), offline.data(), 1, true),
+          "will_set");
+    mosquitto_connect_callback_set(m_, [](mosquitto*, void* self, int rc) { static_cast<MqttBus*>(self)->connected(rc); });
+    mosquitto_disconnect_callback_set(m_, [](mosquitto*, void* self, int rc) {
+      static_cast<MqttBus*>(self)->online_ = false;
+      if (rc != 0) logger()->warn("mqtt: connection lost ({})", mosquitto_strerror(rc));
+    });
+    mosquitto_message_callback_set(m_, [](mosquitto*, void* self, const mosquitto_message* msg) {
+      static_cast<MqttBus*>(self)->message(msg);
+    });
+    mosquitto_publish_callback_set(m_, [](mosquitto*, void* self, int) { --static_cast<MqttBus*>(self)->unacked_; });
+  }
+  ~MqttBus() override {
+    mosquitto_destroy(m_);
+    mosquitto_lib_cleanup();
+  }
+
+  void set_supervisor(Supervisor* s) { s_ = s; }
+
+  void publish(const std::string& topic, const std::string& payload, bool retained) override {
+    const std::string t = c_.mqtt.prefix + "/" + topic;
+    const int rc = mosquitto_publish(m_, nullptr, t.c_str(), static_cast<int>(payload.size()), payload.data(), 1, retained);
+    if (rc == MOSQ_ERR_SUCCESS) ++unacked_;
+    else logger()->warn("mqtt: publish on {} failed: {}", t, mosquitto_strerror(rc));
+  }
+
+  // Connects (TCP) and waits for the broker's answer; throws BrokerRefused on a refusal.
+  bool connect(const std::atomic<bool>& stop) {
+    refused_ = -1;
+    const int rc = first_ ? mosquitto_connect(m_, c_.mqtt.host.c_str(), c_.mqtt.port, c_.mqtt.keepalive_s)
+                          : mosquitto_reconnect(m_);
+    if (rc != MOSQ_ERR_SUCCESS) {
+      logger()->warn("mqtt: cannot connect to {}:{}: {}", c_.mqtt.host, c_.mqtt.port, mosquitto_strerror(rc));
+      return false;
+    }
+    first_ = false;
+    while (!online_ && refused_ < 0 && !stop) {
+      if (mosquitto_loop(m_, 100, 1) != MOSQ_ERR_SUCCESS) break;
+    }
+    if (refused_ > 0)
+      throw BrokerRefused("the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) +
+                          " refused the connection: " + mosquitto_connack_string(refused_) +
+                          (c_.mqtt.username ? " (user '" + *c_.mqtt.username + "')" : std::string(" (anonymous)")));
+    return online_;
+  }
+  // One round of network I/O; false when the connection is gone.
+  bool loop(int timeout_ms) { return mosquitto_loop(m_, timeout_ms, 1) == MOSQ_ERR_SUCCESS && online_; }
+  // Until every QoS 1 publish is acknowledged, at most `seconds`.
+  void flush(double seconds) {
+    const double end = wall_now() + seconds;
+    while (unacked_ > 0 && wall_now() < end)
+      if (mosquitto_loop(m_, 50, 1) != MOSQ_ERR_SUCCESS) break;
+  }
+  void disconnect() { mosquitto_disconnect(m_); }
+  bool online() const { return online_; }
+
+ private:
+  static void check(int rc, const char* what) {
+    if (rc != MOSQ_ERR_SUCCESS) throw std::runtime_error(std::string("mqtt: ") + what + ": " + mosquitto_strerror(rc));
+  }
+  void connected(int rc) {
+    if (rc != 0) {
+      refused_ = rc;
+      return;
+    }
+    refused_ = 0;
+    online_ = true;
+    unacked_ = 0;
+    for (const char* t : {"/sample", "/probe/result"}) {
+      const std::string topic = c_.mqtt.prefix + t;
+      mosquitto_subscribe(m_, nullptr, topic.c_str(), 1);
+    }
+    logger()->info("mqtt: connected to {}:{} as {}", c_.mqtt.host, c_.mqtt.port, c_.mqtt.client_id);
+  }
+  void message(const mosquitto_message* msg) {
+    if (!s_ || !msg->topic) return;
+    const std::string topic(msg->topic);
+    const std::string own = c_.mqtt.prefix + "/";
+    if (topic.rfind(own, 0) != 0) return;
+    const std::string payload(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
+    s_->on_message(topic.substr(own.size()), payload, wall_now());
+  }
+
+  const SupervisorConfig& c_;
+  mosquitto* m_ = nullptr;
+  Supervisor* s_ = nullptr;
+  bool first_ = true;
+  bool online_ = false;
+  int refused_ = -1;
+  int unacked_ = 0;
+};
+
+}  // namespace
+
+void run_service(const SupervisorConfig& config, const std::atomic<bool>& stop, const std::string& software_version) {
+  const std::string offline = "{\"online\":false,\"machine_id\":\"" + config.machine_id + "\"}";
+  MqttBus bus(config, offline);
+  Supervisor supervisor(config, bus, software_version);
+  bus.set_supervisor(&supervisor);
+  double backoff_s = 0.5;
+  while (!stop) {
+    if (!bus.connect(stop)) {
+      // Backoff before the next attempt, watching the stop flag.
+      const double until = wall_now() + backoff_s;
+      while (!stop && wall_now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      backoff_s = std::min(backoff_s * 2.0, 30.0);
+      continue;
+    }
+    backoff_s = 0.5;
+    supervisor.announce();
+    while (!stop && bus.loop(100)) supervisor.on_wall_clock(wall_now());
+    if (!stop) logger()->warn("mqtt: disconnected; reconnecting");
+  }
+  logger()->info("stopping");
+  if (bus.online()) {
+    bus.publish("state", supervisor.state_json(false), true);
+    bus.flush(5.0);
+    bus.disconnect();
+  }
+  supervisor.stop();
+}
+
+}  // namespace alc::supervisor

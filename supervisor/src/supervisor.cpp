@@ -1,0 +1,462 @@
+#include "supervisor/supervisor.hpp"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "common/log.hpp"
+#include "nc_interface/commands.hpp"
+#include "runtime/history_recorder.hpp"
+#include "runtime/nc_emitter.hpp"
+#include "runtime/run.hpp"
+#include "runtime/run_state.hpp"
+#include "storage/history_reader.hpp"
+#include "supervisor/inbox.hpp"
+
+namespace alc::supervisor {
+
+using Json = nlohmann::json;
+
+namespace {
+
+std::shared_ptr<spdlog::logger> logger() { return log::get("supervisor"); }
+
+Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+Json named(const std::vector<std::string>& names, const Eigen::VectorXd& v) {
+  Json j = Json::object();
+  for (std::size_t i = 0; i < names.size(); ++i)
+    j[names[i]] = number_or_null(static_cast<Eigen::Index>(i) < v.size() ? v(static_cast<Eigen::Index>(i)) : NAN);
+  return j;
+}
+
+Json offsets_json(const nc::AxisOffsets& o) {
+  Json j = {{"x_mm", o.x_mm}, {"y_mm", o.y_mm}, {"z_mm", o.z_mm}, {"c_deg", o.c_deg}};
+  if (o.a_deg) j["a_deg"] = *o.a_deg;
+  if (o.b_deg) j["b_deg"] = *o.b_deg;
+  return j;
+}
+
+nc::AxisOffsets offsets_of(const Json& j, int work_offset) {
+  nc::AxisOffsets o;
+  o.x_mm = j.at("x_mm").get<double>();
+  o.y_mm = j.at("y_mm").get<double>();
+  o.z_mm = j.at("z_mm").get<double>();
+  o.c_deg = j.at("c_deg").get<double>();
+  o.a_deg = j.contains("a_deg") ? std::optional<double>(j["a_deg"].get<double>()) : std::nullopt;
+  o.b_deg = j.contains("b_deg") ? std::optional<double>(j["b_deg"].get<double>()) : std::nullopt;
+  o.work_offset = work_offset;
+  return o;
+}
+
+// Infinite times as text in the supervisor's saved state (JSON has no infinity).
+Json time_json(double v) { return std::isfinite(v) ? Json(v) : Json(v > 0 ? "inf" : "-inf"); }
+double time_of(const Json& j) {
+  if (j.is_string()) return j.get<std::string>() == "inf" ? kInf : -kInf;
+  return j.get<double>();
+}
+
+}  // namespace
+
+// Sees every cycle after the recorders and the NC observer: events out, offsets in force.
+class Supervisor::Tap : public runtime::Observer {
+ public:
+  explicit Tap(Supervisor& s) : s_(s) {}
+  void on_cycle(const runtime::Cycle& cycle) override {
+    const ControllerOutput& out = cycle.out();
+    s_.prediction_ = out.prediction;
+    const nc::AxisOffsets in_force = s_.nc_->state().in_force;
+    if (!same(in_force, last_in_force_)) {
+      last_in_force_ = in_force;
+      s_.offsets_changed_ = true;
+      // What the offsets now in force cancel: the prediction of this moment, where an axis can.
+      for (Eigen::Index i = 0; i < s_.compensation_.size(); ++i)
+        s_.compensation_(i) = s_.cancellable_[static_cast<std::size_t>(i)] ? out.prediction(i) : 0.0;
+    }
+    for (const ControllerEvent& e : out.events) {
+      Json j = {{"type", std::string(to_string(e.type))}, {"time_s", e.time_s}, {"reason", e.reason}};
+      if (e.type == ControllerEvent::Type::PhaseChange) {
+        j["from"] = std::string(to_string(e.from));
+        j["to"] = std::string(to_string(e.to));
+      }
+      if (e.type == ControllerEvent::Type::ProbeIntervalChange) j["interval_s"] = number_or_null(e.interval_s);
+      if (e.type == ControllerEvent::Type::AclBreach) {
+        j["output"] = e.output;
+        j["value"] = e.value;
+        j["limit"] = e.limit;
+      }
+      s_.event(std::move(j));
+    }
+  }
+  nc::AxisOffsets last_in_force_;
+
+ private:
+  static bool same(const nc::AxisOffsets& a, const nc::AxisOffsets& b) {
+    return a.x_mm == b.x_mm && a.y_mm == b.y_mm && a.z_mm == b.z_mm && a.a_deg == b.a_deg && a.b_deg == b.b_deg &&
+           a.c_deg == b.c_deg;
+  }
+  Supervisor& s_;
+};
+
+Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string software_version)
+    : config_(config),
+      bus_(bus),
+      software_version_(std::move(software_version)),
+      controller_(config.signals.inputs, config.signals.outputs, config.parameters),
+      driver_(controller_) {
+  const auto n = static_cast<Eigen::Index>(config.signals.outputs.size());
+  compensation_ = Eigen::VectorXd::Zero(n);
+  prediction_ = Eigen::VectorXd::Zero(n);
+  // Which outputs an axis offset cancels at the reference pose: each alone, 1 µm or 1 µm/m.
+  for (const auto& name : config.signals.outputs) {
+    const int field = kinematics::location_error_field(name);
+    bool can = false;
+    if (field >= 0) {
+      kinematics::LocationErrors e{};
+      kinematics::set_location_error(e, field, 1.0);
+      const auto c = kinematics::compensate(config.machine.chain, {}, e);
+      can = c.converged && c.non_compensable_um_per_m < 1e-3;
+    }
+    cancellable_.push_back(can);
+  }
+  driver_.set_machine({config.machine.chain, {}});
+  storage::WriterOptions w;
+  w.create_directories = true;
+  w.durability = config.history.durability;
+  writer_ = std::make_unique<storage::HistoryWriter>(config.history.db, w);
+  inbox_ = std::make_unique<Inbox>(config.history.db.string() + ".inbox");
+  begin_or_resume();
+}
+
+Supervisor::~Supervisor() {
+  try {
+    stop();
+  } catch (const std::exception& e) {
+    logger()->error("stopping: {}", e.what());
+  }
+}
+
+void Supervisor::begin_or_resume() {
+  storage::RunRecord record;
+  record.source = "supervisor " + config_.machine_id;
+  Json identity = {{"parameters", runtime::canonical_parameters(config_.parameters, controller_.schedule().name())},
+                   {"machine", config_.nc.machine ? config_.nc.machine->string() : std::string("built-in")}};
+  record.config_json = identity.dump();
+  record.software_version = software_version_;
+  record.input_names = config_.signals.inputs;
+  record.output_names = config_.signals.outputs;
+  record.offset_names = runtime::HistoryRecorder::offset_names(config_.machine.chain, config_.signals.outputs);
+  bool unfinished = false;
+  for (const auto& r : storage::HistoryReader(config_.history.db).runs())
+    unfinished = unfinished || (r.source == record.source && (r.status == storage::RunStatus::Running ||
+                                                              r.status == storage::RunStatus::Stopped));
+  const double every = config_.history.snapshot_every_s;
+  if (unfinished)
+    lifecycle_ = std::make_unique<runtime::RunLifecycle>(*writer_, config_.history.db, record, every,
+                                                         runtime::RunLifecycle::Resume{});
+  else
+    lifecycle_ = std::make_unique<runtime::RunLifecycle>(*writer_, record, every);
+  const storage::RunId run = lifecycle_->run();
+  recorder_ = std::make_unique<runtime::HistoryRecorder>(*writer_, run, !record.offset_names.empty());
+  nc_ = std::make_unique<runtime::NcCommandObserver>(config_.signals.outputs,
+                                                     runtime::nc_observer_options(config_.machine));
+  nc_->set_history({writer_.get(), run, "mqtt:" + config_.mqtt.prefix + "/offsets", nc::Dialect::LinuxCNC,
+                    config_.machine.nc});
+  tap_ = std::make_unique<Tap>(*this);
+  tap_->last_in_force_ = nc_->state().in_force;
+  driver_.add(*recorder_);
+  driver_.add(*nc_);
+  driver_.add(*tap_);
+  lifecycle_->set_encoder([this](std::int64_t) {
+    inbox_->save_state(next_seq_, extras_json());  // before the snapshot that refers to it
+    ++snapshots_;
+    runtime::RunState s;
+    s.next_index = next_seq_;
+    s.controller = controller_.state();
+    s.identification_s = driver_.identification_s();
+    return runtime::encode_run_state(s);
+  });
+  if (!unfinished) {
+    inbox_->clear();
+    next_seq_ = inbox_->next_seq();
+    lifecycle_->save_snapshot(controller_, 0);
+    inbox_->prune(next_seq_);
+    logger()->info("run {} begun in {}", run, config_.history.db.string());
+    return;
+  }
+  const storage::ControllerSnapshot& snap = *lifecycle_->resumed_from();
+  runtime::RunState s =
+      runtime::load_run_state(config_.history.db, run, snap.payload, config_.signals.inputs.size());
+  controller_ = Controller(config_.signals.inputs, config_.signals.outputs, config_.parameters, std::move(s.controller));
+  driver_.set_identification_s(s.identification_s);
+  next_seq_ = s.next_index;
+  const auto extras = inbox_->state_at(next_seq_);
+  if (!extras)
+    throw std::runtime_error(inbox_->path().string() + ": no supervisor state for the snapshot of run " +
+                             std::to_string(run) + " (inbox entry " + std::to_string(next_seq_) + ")");
+  restore_extras(*extras);
+  // Everything accepted after the snapshot, again, in the order it was accepted.
+  recovering_ = true;
+  const auto entries = inbox_->from(next_seq_);
+  for (const InboxEntry& e : entries) process(e.kind, e.payload, e.seq);
+  recovering_ = false;
+  logger()->info("run {} resumed from its snapshot at t = {} s and {} inbox entries after it", run, snap.time_s,
+                 entries.size());
+}
+
+std::string Supervisor::extras_json() const {
+  const auto st = nc_->state();
+  return Json{{"next_id", next_id_},
+              {"compensation", std::vector<double>(compensation_.data(), compensation_.data() + compensation_.size())},
+              {"last_offsets_s", time_json(last_offsets_s_)},
+              {"last_received_s", time_json(last_received_s_)},
+              {"nc_last", offsets_json(st.last)},
+              {"nc_in_force", offsets_json(st.in_force)},
+              {"nc_behind", st.behind},
+              {"nc_next_periodic_s", time_json(st.next_periodic_s)},
+              {"received", counts_.received},
+              {"rejected", counts_.rejected},
+              {"requests", counts_.requests},
+              {"timeouts", counts_.timeouts}}
+      .dump();
+}
+
+void Supervisor::restore_extras(const std::string& text) {
+  const Json j = Json::parse(text);
+  next_id_ = j.at("next_id").get<std::int64_t>();
+  const auto comp = j.at("compensation").get<std::vector<double>>();
+  for (std::size_t i = 0; i < comp.size() && static_cast<Eigen::Index>(i) < compensation_.size(); ++i)
+    compensation_(static_cast<Eigen::Index>(i)) = comp[i];
+  last_offsets_s_ = time_of(j.at("last_offsets_s"));
+  last_received_s_ = time_of(j.at("last_received_s"));
+  runtime::NcCommandObserver::State st;
+  const int wo = config_.machine.work_offset;
+  st.last = offsets_of(j.at("nc_last"), wo);
+  st.in_force = offsets_of(j.at("nc_in_force"), wo);
+  st.behind = j.at("nc_behind").get<bool>();
+  st.next_periodic_s = time_of(j.at("nc_next_periodic_s"));
+  nc_->restore(st);
+  tap_->last_in_force_ = st.in_force;
+  counts_.received = j.at("received").get<std::int64_t>();
+  counts_.rejected = j.at("rejected").get<std::int64_t>();
+  counts_.requests = j.at("requests").get<std::int64_t>();
+  counts_.timeouts = j.at("timeouts").get<std::int64_t>();
+  prediction_ = controller_.state().prediction.size() ? controller_.state().prediction : prediction_;
+}
+
+void Supervisor::publish(const std::string& topic, const std::string& payload, bool retained) {
+  if (!recovering_) bus_.publish(topic, payload, retained);
+}
+
+void Supervisor::event(Json e) { publish("event", e.dump(), false); }
+
+void Supervisor::reject(const std::string& topic, const std::string& reason) {
+  ++counts_.rejected;
+  logger()->warn("message on {} rejected: {}", topic, reason);
+  event({{"type", "MessageRejected"}, {"topic", topic}, {"reason", reason}});
+}
+
+void Supervisor::on_message(const std::string& topic, const std::string& payload, double wall_s) {
+  if (stopped_) return;
+  if (payload.size() > config_.mqtt.max_payload_bytes) {
+    reject(topic, "payload of " + std::to_string(payload.size()) + " bytes is larger than max_payload_bytes = " +
+                      std::to_string(config_.mqtt.max_payload_bytes));
+    return;
+  }
+  const std::int64_t before = counts_.received;
+  process(topic, payload, -1);
+  if (counts_.received != before) {
+    last_sample_wall_s_ = wall_s;
+    if (stale_) {
+      stale_ = false;
+      event({{"type", "SamplesResumed"}, {"reason", "a sample arrived"}});
+    }
+  }
+  publish("state", state_json(true), true);
+}
+
+void Supervisor::on_wall_clock(double wall_s) {
+  if (last_sample_wall_s_ == 0.0) last_sample_wall_s_ = wall_s;
+  if (stale_ || wall_s - last_sample_wall_s_ < config_.signals.stale_after_s) return;
+  stale_ = true;
+  logger()->warn("no sample for {} s: stale, offsets held", wall_s - last_sample_wall_s_);
+  event({{"type", "Stale"},
+         {"reason", "no sample for stale_after_s = " + std::to_string(config_.signals.stale_after_s) +
+                        " s of wall-clock time: offsets held"}});
+  publish("state", state_json(true), true);
+}
+
+// seq: the inbox entry being processed again (recovery), or -1 for a message just received.
+void Supervisor::process(const std::string& topic, const std::string& payload, std::int64_t seq) {
+  if (topic == "sample") {
+    auto parsed = parse_sample(payload, config_.signals.inputs);
+    if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
+    const SampleMessage& m = std::get<SampleMessage>(parsed);
+    if (m.time_s == last_received_s_)
+      return reject(topic, "duplicate sample: time_s = " + std::to_string(m.time_s) + " s was accepted already");
+    if (m.time_s < last_received_s_)
+      return reject(topic, "time goes backwards: time_s = " + std::to_string(m.time_s) + " s after " +
+                               std::to_string(last_received_s_) + " s");
+    const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
+    entry_seq_ = s;
+    last_received_s_ = m.time_s;
+    ++counts_.received;
+    held_.push_back(m);
+    drain();
+    if (idle()) next_seq_ = s + 1;
+    return;
+  }
+  if (topic == "probe/result") {
+    auto parsed = parse_probe_result(payload, config_.signals.outputs);
+    if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
+    const ProbeResultMessage& m = std::get<ProbeResultMessage>(parsed);
+    if (!outstanding_ || m.id != outstanding_->id || result_) {
+      if (m.id >= next_id_ || m.id < 1) return reject(topic, "unknown probe id " + std::to_string(m.id));
+      return reject(topic, "duplicate or late result for probe id " + std::to_string(m.id) +
+                               " (answered or timed out already)");
+    }
+    if (m.time_s < outstanding_->trigger_s)
+      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + std::to_string(m.time_s) +
+                               " s is before its request at " + std::to_string(outstanding_->trigger_s) + " s");
+    const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
+    entry_seq_ = s;
+    result_ = m;
+    drain();
+    if (idle()) next_seq_ = s + 1;
+    return;
+  }
+  reject(topic, "not a topic the supervisor reads");
+}
+
+void Supervisor::drain() {
+  for (;;) {
+    if (outstanding_) {
+      if (result_ && last_received_s_ >= result_->time_s) {
+        apply_result();
+        continue;
+      }
+      if (!result_ && !held_.empty() && held_.back().time_s > outstanding_->trigger_s + config_.signals.probe_timeout_s) {
+        ++counts_.timeouts;
+        logger()->warn("probe {} timed out", outstanding_->id);
+        event({{"type", "ProbeTimeout"},
+               {"id", outstanding_->id},
+               {"time_s", held_.back().time_s},
+               {"reason", "no result within probe_timeout_s = " + std::to_string(config_.signals.probe_timeout_s) +
+                              " s of machine time after the request"}});
+        outstanding_.reset();
+        continue;
+      }
+      return;
+    }
+    if (held_.empty()) return;
+    const SampleMessage m = held_.front();
+    held_.pop_front();
+    feed(m);
+  }
+}
+
+void Supervisor::feed(const SampleMessage& m) {
+  runtime::Sample s;
+  s.index = controller_.state().samples;
+  s.time_s = m.time_s;
+  s.inputs = m.inputs;
+  offsets_changed_ = false;
+  const ControllerOutput out = driver_.sample(s);
+  if (!out.accepted) return reject("sample", out.reason);
+  if (offsets_changed_ || m.time_s >= last_offsets_s_ + 900.0) publish_offsets(m.time_s);
+  if (!outstanding_ && m.time_s >= controller_.state().next_probe_due_s) request_probe(m.time_s);
+  if (!outstanding_ && held_.empty()) {
+    // A consistent point: every inbox entry up to this one is processed.
+    next_seq_ = entry_seq_ + 1;
+    const std::int64_t before = snapshots_;
+    lifecycle_->on_sample_done(s, controller_, controller_.state().samples);
+    if (snapshots_ != before) inbox_->prune(next_seq_);
+    nc_->forget_commands();
+  }
+}
+
+void Supervisor::request_probe(double trigger_s) {
+  outstanding_ = Outstanding{next_id_++, controller_.state().next_probe_due_s, trigger_s, compensation_};
+  ++counts_.requests;
+  publish_request();
+}
+
+void Supervisor::publish_request() {
+  publish("probe/request", Json{{"id", outstanding_->id},
+                                {"due_s", outstanding_->due_s},
+                                {"phase", std::string(to_string(controller_.phase()))}}
+                               .dump(),
+          false);
+}
+
+void Supervisor::apply_result() {
+  // The held samples up to the probe's time, then the probe, then (drain) the rest.
+  while (!held_.empty() && held_.front().time_s <= result_->time_s) {
+    const SampleMessage m = held_.front();
+    held_.pop_front();
+    feed(m);
+  }
+  ProbeMeasurement p;
+  p.time_s = result_->time_s;
+  p.measured = result_->measured;
+  p.compensation = outstanding_->compensation;  // what the NC held when the probe cycle was asked for
+  const std::int64_t id = result_->id;
+  outstanding_.reset();
+  result_.reset();
+  offsets_changed_ = false;
+  const ControllerOutput out = driver_.probe(p);
+  if (!out.accepted) return reject("probe/result", "probe " + std::to_string(id) + ": " + out.reason);
+  if (offsets_changed_) publish_offsets(p.time_s);
+}
+
+void Supervisor::publish_offsets(double time_s) {
+  last_offsets_s_ = time_s;
+  const int wo = config_.machine.work_offset;
+  publish("offsets",
+          Json{{"time_s", time_s},
+               {"prediction", named(config_.signals.outputs, prediction_)},
+               {"compensation", named(config_.signals.outputs, compensation_)},
+               {"axis", offsets_json(nc_->state().in_force)},
+               {"work_offset", "G5" + std::to_string(3 + wo)}}
+              .dump(),
+          false);
+}
+
+std::string Supervisor::state_json(bool online) const {
+  const ControllerState& c = controller_.state();
+  return Json{{"online", online},
+              {"machine_id", config_.machine_id},
+              {"phase", std::string(to_string(c.phase))},
+              {"model_age_s", c.has_model && std::isfinite(c.last_update_s) ? Json(c.now_s - c.last_update_s) : Json()},
+              {"last_sample_s", c.started ? Json(c.now_s) : Json()},
+              {"probe_interval_s", number_or_null(c.current_interval_s)},
+              {"samples", c.samples},
+              {"received", counts_.received},
+              {"held", held_.size()},
+              {"probes", c.probe_cycles},
+              {"probe_requests", counts_.requests},
+              {"probe_timeouts", counts_.timeouts},
+              {"outstanding_probe", outstanding_ ? Json(outstanding_->id) : Json()},
+              {"rejected", counts_.rejected},
+              {"stale", stale_}}
+      .dump();
+}
+
+void Supervisor::announce() {
+  publish("state", state_json(true), true);
+  if (controller_.state().started) publish_offsets(controller_.state().now_s);
+  if (outstanding_) publish_request();
+}
+
+void Supervisor::stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  if (idle()) {
+    lifecycle_->save_snapshot(controller_, controller_.state().samples);
+    inbox_->prune(next_seq_);
+  }
+  lifecycle_->end(false);
+  writer_->close();
+  logger()->info("stopped: {} samples, {} probes", controller_.state().samples, controller_.state().probe_cycles);
+}
+
+}  // namespace alc::supervisor
