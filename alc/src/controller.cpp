@@ -194,9 +194,11 @@ Eigen::VectorXd Controller::compensated() const {
 
 void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                              ControllerOutput& out) {
-  // Decay of the guard's sums per probe: the last five or so probes weigh most.
-  constexpr double kGuardDecay = 0.8;
-  constexpr int kGuardMinProbes = 4;
+  // Decay of the guard's sums per probe: about the last ten probes weigh; a transient (a breach the
+  // NG burst repairs) must not switch compensation off.
+  constexpr double kGuardDecay = 0.9;
+  constexpr int kGuardMinProbes = 8;
+  constexpr double kGuardOff = 2.0;  // residual energy / error energy that holds compensation off
   const double dt = time_s - state_.last_probe_s;
   ++state_.guard_probes;
   for (Eigen::Index i = 0; i < residuals.size(); ++i) {
@@ -214,11 +216,14 @@ void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const
     // and beyond the ACL: within the ACL compensating does no harm worth a switch.
     const double weights = (1.0 - std::pow(kGuardDecay, state_.guard_probes)) / (1.0 - kGuardDecay);
     const double residual_rms = std::sqrt(state_.guard_residual(i) / weights);
-    const double gain = params_.guard && state_.guard_probes >= kGuardMinProbes &&
-                                state_.guard_residual(i) > state_.guard_error(i) &&
-                                residual_rms > acl_of(static_cast<std::size_t>(i))
-                            ? 0.0
-                            : 1.0;
+    // Off when clearly worse (twice the energy), back on when no longer worse at all: no chatter.
+    const bool worse = state_.guard_residual(i) > kGuardOff * state_.guard_error(i) &&
+                       residual_rms > acl_of(static_cast<std::size_t>(i));
+    const bool better = state_.guard_residual(i) <= state_.guard_error(i);
+    const double gain = !params_.guard || state_.guard_probes < kGuardMinProbes ? 1.0
+                        : worse                                                 ? 0.0
+                        : better                                                ? 1.0
+                                                                                : state_.guard_gain(i);
     if (gain == state_.guard_gain(i)) continue;
     state_.guard_gain(i) = gain;
     ControllerEvent e;

@@ -89,7 +89,7 @@ TEST_CASE("a study row equals alc replay of its set bit for bit (a seeded random
   }
 }
 
-TEST_CASE("shards hold every row once and equal the whole study; sharing changes no row") {
+TEST_CASE("shards hold every row once and equal the whole study and sharing changes no row") {
   StudyOptions whole;
   whole.jobs = 2;
   const auto all = run(whole);
