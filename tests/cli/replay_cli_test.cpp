@@ -105,7 +105,7 @@ TEST_CASE("alc replay --resume refuses other parameters than the stored run's") 
 TEST_CASE("alc replay: usage errors name the option and value") {
   const Run bad = alc("replay --case A --interval soon");
   CHECK(bad.exit_code == 2);
-  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a non-negative number or 'inf'"));
+  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a number >= 0 or inf"));
   const Run neither = alc("replay");
   CHECK(neither.exit_code == 2);
   CHECK_THAT(neither.err, Catch::Matchers::Contains("give exactly one of FILE.csv or --case"));
