@@ -11,6 +11,8 @@ std::vector<std::string> load_case_names(const std::string& selector) {
   std::vector<std::string> names;
   if (selector == "all") {
     for (const auto& info : scenarios::load_cases()) names.push_back(info.name);
+  } else if (selector == "heldout") {
+    for (const auto& info : scenarios::heldout_cases()) names.push_back(info.name);
   } else if (scenarios::find_case(selector)) {
     names.push_back(selector);
   } else {

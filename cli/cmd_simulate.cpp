@@ -39,9 +39,9 @@ std::string fixed(double value, int decimals) {
 
 std::string case_names() {
   std::string names;
-  for (const auto* list : {&sc::load_cases(), &sc::recording_cases()})
+  for (const auto* list : {&sc::load_cases(), &sc::recording_cases(), &sc::heldout_cases()})
     for (const auto& c : *list) names += (names.empty() ? "" : ", ") + c.name;
-  return names + " or all (= A-D)";
+  return names + ", all (= A-D) or heldout (= H1-H5)";
 }
 
 void print_list() {
@@ -53,6 +53,8 @@ void print_list() {
   for (const auto& c : sc::load_cases()) line(c);
   std::cout << "recording-like scenarios:\n";
   for (const auto& c : sc::recording_cases()) line(c);
+  std::cout << "held-out variants of the C-axis twin (heldout):\n";
+  for (const auto& c : sc::heldout_cases()) line(c);
 }
 
 // The noiseless truth as a scenario CSV: true loads and node temperatures as inputs, the true
@@ -105,10 +107,10 @@ void run_simulate(const SimulateArgs& args) {
   }
   if (args.case_name.empty()) throw UsageError("simulate: give --case NAME (" + case_names() + "), or --list");
   std::vector<std::string> names;
-  if (args.case_name == "all") {
+  if (args.case_name == "all" || args.case_name == "heldout") {
     if (!args.out.empty() || !args.truth.empty())
-      throw UsageError("simulate: --out and --truth write one case; with --case all use --summary");
-    for (const auto& c : sc::load_cases()) names.push_back(c.name);
+      throw UsageError("simulate: --out and --truth write one case; with --case " + args.case_name + " use --summary");
+    names = load_case_names(args.case_name);
   } else {
     if (!sc::find_case(args.case_name))
       throw UsageError("simulate: unknown --case '" + args.case_name + "' (expected " + case_names() + ")");
@@ -141,7 +143,7 @@ void add_simulate_command(CLI::App& app) {
       "sample and probe measurements of the errors (empty cells between probes). See docs/twin.md.");
   cmd->add_option("--case", args->case_name,
                   "Case to simulate: A, B, C, D (C-axis load cases, 8 days at 1 min), S16 (recording-like spindle run), "
-                  "or all (A-D, with --summary)");
+                  "H1-H5 (held-out variants of the C-axis twin), all (A-D) or heldout (H1-H5), the last two with --summary");
   cmd->add_option("--out", args->out, "Write the scenario CSV (what sensors and the probe gave) to this file");
   cmd->add_option("--truth", args->truth,
                   "Also write the noiseless truth (loads, node temperatures, true errors at every sample) as CSV");

@@ -38,7 +38,8 @@ void add_simulate_command(CLI::App& app);
 // alc replay: a scenario or built-in load case through the ALC controller (cli/cmd_replay.cpp).
 void add_replay_command(CLI::App& app);
 
-// Names of the built-in load cases for a --case value: "all" (A–D) or one name (cli/cases.cpp).
+// Names of the built-in load cases for a --case value: "all" (A–D), "heldout" (H1–H5) or one name
+// (cli/cases.cpp).
 // Throws UsageError for an unknown name.
 std::vector<std::string> load_case_names(const std::string& selector);
 

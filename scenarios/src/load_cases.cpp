@@ -18,7 +18,8 @@ constexpr double kPi = 3.141592653589793;
 constexpr double kErrorResolution = 0.001;  // [µm], [µm/m] rounding of written errors
 
 // Independent random streams of one simulation (see SeededRandom::derive_seed).
-enum Stream : std::uint64_t { kAmbientStream = 1, kProductionStream, kFluidStream, kDriftStream, kSensorStream, kProbeStream };
+enum Stream : std::uint64_t { kAmbientStream = 1, kProductionStream, kFluidStream, kDriftStream, kSensorStream, kProbeStream,
+                              kHiddenStream };
 
 SeededRandom stream(std::uint64_t seed, Stream s) { return SeededRandom(SeededRandom::derive_seed(seed, s)); }
 
@@ -150,6 +151,108 @@ const std::vector<LoadCaseInfo>& recording_list() {
   return cases;
 }
 
+const std::vector<LoadCaseInfo>& heldout_list() {
+  static const std::vector<LoadCaseInfo> cases = {
+      {"H1", 144.0, 60.0, "another machine: lighter and faster, weak bearing cooling, hot hall; T_ENV, T_BED, T_TBL, T_COL", 201},
+      {"H2", 192.0, 300.0, "5-min logger: T_WS drifts 0.1 K/day, T_COOL dead (stuck) from 60 h; two shifts Mon-Fri", 202},
+      {"H3", 48.0, 10.0, "10-s sampling; the machine is moved at 26 h: errors jump, the bed's gains change", 203},
+      {"H4", 192.0, 60.0, "strongly nonlinear cradle bending, slow creep, three gaps in the data (0.5-12 h)", 204},
+      {"H5", 144.0, 60.0, "errors driven mostly by an unmeasured heat source (no sensor, no logged state)", 205},
+  };
+  return cases;
+}
+
+// A sensor on one node, or between nodes and the hall air.
+SensorPlacement on_nodes(std::string name, std::vector<std::pair<TwinNode, double>> nodes, double ambient = 0.0) {
+  SensorPlacement p;
+  p.name = std::move(name);
+  for (const auto& [node, weight] : nodes) p.node_weights[static_cast<std::size_t>(node)] = weight;
+  p.ambient_weight = ambient;
+  return p;
+}
+
+// A–D's sensors as placements (for the held-out cases that break one of them).
+std::vector<SensorPlacement> default_sensors() {
+  return {on_nodes("T_ENV", {}, 1.0), on_nodes("T_WS", {{kWorkspace, 1.0}}), on_nodes("T_COOL", {{kCoolant, 1.0}})};
+}
+
+void held_out_spec(std::string_view name, LoadCaseSpec& spec) {
+  VariantSpec& v = spec.variant;
+  ThermalTwinParams& twin = spec.twin;
+  if (name == "H1") {
+    // A smaller machine: lighter structure (shorter time constants), a weak cooling jacket, stiffer
+    // couplings to the bed, friction rising with the square of the speed, another output map; a
+    // hall without air conditioning; other sensors in other places (no coolant sensor).
+    twin.c_bearing = 2.5e4;
+    twin.c_table = 1.0e5;
+    twin.c_cradle = 3.0e5;
+    twin.c_bed = 2.0e6;
+    twin.c_column = 6.0e5;
+    twin.g_bearing_coolant = 8.0;
+    twin.g_bearing_table = 25.0;
+    twin.g_cradle_bed = 35.0;
+    twin.g_bed_ambient = 30.0;
+    twin.friction_power_W = 90.0;
+    twin.friction_exponent = 2.0;
+    twin.gains = {{
+        //  bearing table  cradle  bed   column  ws   cool chill fluid
+        {{  2.0,   -0.6,  0.8,   -2.2,  1.8,   0.0, 0.0, 0.0, 0.0}},  // E_X0C
+        {{  0.8,   1.5,   2.2,   -1.4,  -1.0,  0.0, 0.0, 0.0, 0.0}},  // E_Y0C
+        {{  2.4,   1.2,   0.6,   1.6,   -2.5,  0.0, 0.0, 0.0, 0.0}},  // E_Z0T
+        {{  0.5,   3.5,   0.4,   -0.8,  0.0,   0.0, 0.0, 0.0, 0.0}},  // E_R0T
+        {{  4.0,   1.0,   2.5,   -3.0,  -1.0,  0.0, 0.0, 0.0, 0.0}},  // E_A0C
+        {{  1.5,   -1.5,  2.0,   2.5,   3.0,   0.0, 0.0, 0.0, 0.0}},  // E_B0C
+        {{  6.0,   2.0,   -2.5,  0.0,   -1.0,  0.0, 0.0, 0.0, 0.0}},  // E_C0C
+    }};
+    spec.ambient.base_C = 23.0;
+    spec.ambient.daily_amplitude_K = 3.0;
+    spec.ambient.door_rate_work_per_h = 0.6;
+    spec.production.job_min_min = 5.0;
+    spec.production.job_max_min = 45.0;
+    spec.production.working_days = 6;
+    v.sensors = {on_nodes("T_ENV", {}, 1.0), on_nodes("T_BED", {{kBed, 1.0}}),
+                 on_nodes("T_TBL", {{kTable, 0.6}, {kWorkspace, 0.4}}), on_nodes("T_COL", {{kColumn, 0.8}}, 0.2)};
+  } else if (name == "H2") {
+    // A's machine, logged every 5 min (the probe reads at every row), with a drifting workspace
+    // sensor and a coolant sensor that dies at 60 h and keeps its last reading.
+    spec.ambient.base_C = 20.0;
+    spec.production.job_min_min = 10.0;
+    spec.production.job_max_min = 90.0;
+    spec.production.shift_start_h = 6.0;
+    spec.production.shift_end_h = 22.0;
+    spec.production.working_days = 5;
+    v.sensors = default_sensors();
+    v.sensors[1].drift_K_per_day = 0.1;
+    v.sensors[2].dead_after_h = 60.0;
+  } else if (name == "H3") {
+    // A's machine sampled every 10 s; at 26 h it is moved (or its levelling repaired): the errors
+    // jump and the bed, on its new foundation, deforms the axis 1.8 times as much.
+    spec.ambient.base_C = 21.5;
+    v.move_at_h = 26.0;
+    v.move_offset = {6.0, -4.0, 3.0, 2.0, 12.0, -8.0, 5.0};
+    v.move_bed_gain_factor = 1.8;
+  } else if (name == "H4") {
+    // The cradle bends 25 times as much with the square of its gradient, friction grows with
+    // n^2.4; a new foundation settles (creep, τ 120 h); the logger was off three times.
+    for (double& q : twin.quadratic) q *= 25.0;
+    twin.friction_exponent = 2.4;
+    spec.ambient.base_C = 20.5;
+    v.creep = {3.0, -2.0, 6.0, 2.0, 8.0, -5.0, 4.0};
+    v.creep_time_constant_h = 120.0;
+    v.gaps_h = {{30.0, 36.0}, {100.0, 100.5}, {150.0, 162.0}};
+  } else {  // H5
+    // Little C-axis heat; most of the error comes from a spindle head or hydraulic unit whose
+    // state no input shows, switched on and off at random.
+    twin.friction_power_W = 50.0;
+    spec.ambient.daily_amplitude_K = 1.0;
+    spec.ambient.weather_sigma_K = 0.6;
+    v.hidden.enabled = true;
+    v.hidden.rise_K = 5.0;
+    v.hidden.time_constant_h = 2.5;
+    v.hidden.gains = {2.5, -1.5, -4.0, 0.8, -3.0, 6.0, 1.5};
+  }
+}
+
 // ---- S16: the spindle recording ---------------------------------------------------------------
 
 // A test-bench style program: warm-up steps, a cool-down, random jobs, a night stop, more jobs.
@@ -243,8 +346,10 @@ SimulatedCase simulate_spindle_recording(const LoadCaseInfo& info, std::uint64_t
 const std::vector<LoadCaseInfo>& load_cases() { return case_list(); }
 const std::vector<LoadCaseInfo>& recording_cases() { return recording_list(); }
 
+const std::vector<LoadCaseInfo>& heldout_cases() { return heldout_list(); }
+
 std::optional<LoadCaseInfo> find_case(std::string_view name) {
-  for (const auto* list : {&case_list(), &recording_list()})
+  for (const auto* list : {&case_list(), &recording_list(), &heldout_list()})
     for (const LoadCaseInfo& c : *list)
       if (c.name == name) return c;
   return std::nullopt;
@@ -254,8 +359,12 @@ LoadCaseSpec load_case_spec(std::string_view name) {
   LoadCaseSpec spec;
   const auto info = find_case(name);
   if (!info || info->name == "S16")
-    throw std::invalid_argument("load_case_spec: no load case '" + std::string(name) + "' (A, B, C or D)");
+    throw std::invalid_argument("load_case_spec: no load case '" + std::string(name) + "' (A, B, C, D or H1-H5)");
   spec.info = *info;
+  if (name.front() == 'H') {
+    held_out_spec(name, spec);
+    return spec;
+  }
   ProductionPattern& prod = spec.production;
   AmbientParams& hall = spec.ambient;
   if (name == "A") {
@@ -289,6 +398,116 @@ LoadCaseSpec load_case_spec(std::string_view name) {
   return spec;
 }
 
+namespace {
+
+// Excess temperature [K] of the hidden node at each sample: on/off periods of the source (log-uniform
+// lengths, starting off), a first-order lag towards rise_K while on.
+std::vector<double> hidden_temperature(const HiddenSource& h, std::size_t samples, double step_s, SeededRandom& random) {
+  const double phi = std::exp(-step_s / (h.time_constant_h * kHour));
+  std::vector<double> excess(samples, 0.0);
+  double next_switch_s = kHour * log_uniform(random, h.off_min_h, h.off_max_h);
+  bool on = false;
+  double x = 0.0;
+  for (std::size_t k = 0; k < samples; ++k) {
+    const double t = static_cast<double>(k) * step_s;
+    while (t >= next_switch_s) {
+      on = !on;
+      next_switch_s += kHour * (on ? log_uniform(random, h.on_min_h, h.on_max_h) : log_uniform(random, h.off_min_h, h.off_max_h));
+    }
+    excess[k] = x;
+    x = phi * x + (1.0 - phi) * (on ? h.rise_K : 0.0);
+  }
+  return excess;
+}
+
+// Adds a held-out case's creep, the offset of its move and its hidden source to the drift.
+void add_variant_drift(const VariantSpec& v, std::uint64_t seed, LoadProfile& profile) {
+  const auto n = static_cast<Eigen::Index>(profile.time_s.size());
+  const bool creep = std::any_of(v.creep.begin(), v.creep.end(), [](double c) { return c != 0.0; });
+  std::vector<double> hidden;
+  if (v.hidden.enabled) {
+    auto hidden_random = stream(seed, kHiddenStream);
+    const double step = n > 1 ? profile.time_s[1] - profile.time_s[0] : 60.0;
+    hidden = hidden_temperature(v.hidden, profile.time_s.size(), step, hidden_random);
+  }
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double t = profile.time_s[static_cast<std::size_t>(k)];
+    for (int e = 0; e < kTwinErrors; ++e) {
+      const auto i = static_cast<std::size_t>(e);
+      if (creep) profile.drift(k, e) += v.creep[i] * (1.0 - std::exp(-t / (v.creep_time_constant_h * kHour)));
+      if (t >= v.move_at_h * kHour) profile.drift(k, e) += v.move_offset[i];
+      if (!hidden.empty()) profile.drift(k, e) += v.hidden.gains[i] * hidden[static_cast<std::size_t>(k)];
+    }
+  }
+}
+
+// From the move on, the errors of the machine on its new foundation (the bed's gains scaled); the
+// jump itself is in the drift (add_variant_drift).
+void apply_move(const VariantSpec& v, const ThermalTwinParams& before, SimulatedCase& run) {
+  ThermalTwinParams after = before;
+  for (auto& row : after.gains) row[kBed] *= v.move_bed_gain_factor;
+  const ThermalTwin moved(after, run.info.step_s);
+  for (Eigen::Index k = 0; k < run.truth.errors.rows(); ++k)
+    if (run.profile.time_s[static_cast<std::size_t>(k)] >= v.move_at_h * kHour)
+      run.truth.errors.row(k) = moved.errors(run.truth.nodes.row(k).transpose(), run.profile.drift.row(k).transpose()).transpose();
+}
+
+// Removes the rows inside the gaps from the profile and the truth (the logger was off; the machine
+// ran on).
+void drop_gaps(const std::vector<std::pair<double, double>>& gaps_h, SimulatedCase& run) {
+  std::vector<Eigen::Index> keep;
+  for (std::size_t k = 0; k < run.profile.time_s.size(); ++k) {
+    const double h = run.profile.time_s[k] / kHour;
+    if (std::none_of(gaps_h.begin(), gaps_h.end(), [h](const auto& g) { return h >= g.first && h < g.second; }))
+      keep.push_back(static_cast<Eigen::Index>(k));
+  }
+  LoadProfile& p = run.profile;
+  std::vector<double> time_s;
+  std::vector<ThermalLoad> loads;
+  for (const Eigen::Index k : keep) {
+    time_s.push_back(p.time_s[static_cast<std::size_t>(k)]);
+    loads.push_back(p.loads[static_cast<std::size_t>(k)]);
+  }
+  p.time_s = std::move(time_s);
+  p.loads = std::move(loads);
+  p.drift = Eigen::MatrixXd(p.drift(keep, Eigen::all));
+  run.truth.nodes = Eigen::MatrixXd(run.truth.nodes(keep, Eigen::all));
+  run.truth.errors = Eigen::MatrixXd(run.truth.errors(keep, Eigen::all));
+}
+
+// The inputs of a held-out case with its own sensors: each a weighted mix of nodes and the hall
+// air, with drift, noise and quantisation, stuck at its last reading once dead; then n_C (and
+// CF_on).
+void placed_sensor_readings(const LoadCaseSpec& spec, SeededRandom& random, SimulatedCase& run) {
+  const std::vector<SensorPlacement>& sensors = spec.variant.sensors;
+  Scenario& s = run.scenario;
+  const bool fluid = spec.fluid.enabled;
+  for (const SensorPlacement& p : sensors) s.input_names.push_back(p.name);
+  s.input_names.push_back("n_C");
+  if (fluid) s.input_names.push_back("CF_on");
+  const auto n = static_cast<Eigen::Index>(run.profile.time_s.size());
+  const auto m = static_cast<Eigen::Index>(sensors.size());
+  s.inputs.resize(n, static_cast<Eigen::Index>(s.input_names.size()));
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const double t = run.profile.time_s[static_cast<std::size_t>(r)];
+    const ThermalLoad& load = run.profile.loads[static_cast<std::size_t>(r)];
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const SensorPlacement& p = sensors[static_cast<std::size_t>(j)];
+      if (r > 0 && t >= p.dead_after_h * kHour) {
+        s.inputs(r, j) = s.inputs(r - 1, j);
+        continue;
+      }
+      double truth = p.ambient_weight * load.ambient_C + p.drift_K_per_day * t / kDay;
+      for (int i = 0; i < kTwinNodes; ++i) truth += p.node_weights[static_cast<std::size_t>(i)] * run.truth.nodes(r, i);
+      s.inputs(r, j) = sensor_reading(truth, spec.sensors, random);
+    }
+    s.inputs(r, m) = load.speed_rpm;
+    if (fluid) s.inputs(r, m + 1) = load.fluid_on ? 1.0 : 0.0;
+  }
+}
+
+}  // namespace
+
 LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed) {
   const std::size_t n = samples_for(spec.info);
   const double step = spec.info.step_s;
@@ -307,6 +526,7 @@ LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed) {
   std::vector<double> sigma(kTwinErrors, spec.drift.sigma_linear_um);
   std::fill(sigma.begin() + 4, sigma.end(), spec.drift.sigma_angular_um_per_m);  // E_A0C, E_B0C, E_C0C
   profile.drift = drift_series(sigma, spec.drift.time_constant_h, n, step, drift_random);
+  add_variant_drift(spec.variant, seed, profile);
   return profile;
 }
 
@@ -315,7 +535,6 @@ SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed) {
   run.info = spec.info;
   run.seed = seed;
   run.profile = make_load_profile(spec, seed);
-  const std::size_t n = run.profile.loads.size();
 
   // The machine stood still in the hall long enough to be in equilibrium with it at the start,
   // and its errors are taken against that state (as a recording zeroes them at its start).
@@ -324,24 +543,31 @@ SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed) {
   params.reference_temperature_C = at_rest.ambient_C;
   const ThermalTwin twin(params, spec.info.step_s);
   run.truth = twin.simulate(twin.steady_state(at_rest), run.profile.loads, run.profile.drift);
+  const VariantSpec& variant = spec.variant;
+  if (std::isfinite(variant.move_at_h)) apply_move(variant, params, run);
+  if (!variant.gaps_h.empty()) drop_gaps(variant.gaps_h, run);
+  const std::size_t n = run.profile.loads.size();
 
   Scenario& s = run.scenario;
-  const bool fluid = spec.fluid.enabled;
-  s.input_names = {"T_ENV", fluid ? "T_CF" : "T_WS", "T_COOL", "n_C"};
-  if (fluid) s.input_names.push_back("CF_on");
   s.output_names = ThermalTwin::error_names();
   s.time_s = run.profile.time_s;
-  s.inputs.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(s.input_names.size()));
-
   auto sensor_random = stream(seed, kSensorStream);
-  for (std::size_t k = 0; k < n; ++k) {
-    const auto r = static_cast<Eigen::Index>(k);
-    const ThermalLoad& load = run.profile.loads[k];
-    s.inputs(r, 0) = sensor_reading(load.ambient_C, spec.sensors, sensor_random);
-    s.inputs(r, 1) = sensor_reading(run.truth.nodes(r, fluid ? kFluidTank : kWorkspace), spec.sensors, sensor_random);
-    s.inputs(r, 2) = sensor_reading(run.truth.nodes(r, kCoolant), spec.sensors, sensor_random);
-    s.inputs(r, 3) = load.speed_rpm;
-    if (fluid) s.inputs(r, 4) = load.fluid_on ? 1.0 : 0.0;
+  const bool fluid = spec.fluid.enabled;
+  if (!variant.sensors.empty()) {
+    placed_sensor_readings(spec, sensor_random, run);
+  } else {
+    s.input_names = {"T_ENV", fluid ? "T_CF" : "T_WS", "T_COOL", "n_C"};
+    if (fluid) s.input_names.push_back("CF_on");
+    s.inputs.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(s.input_names.size()));
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto r = static_cast<Eigen::Index>(k);
+      const ThermalLoad& load = run.profile.loads[k];
+      s.inputs(r, 0) = sensor_reading(load.ambient_C, spec.sensors, sensor_random);
+      s.inputs(r, 1) = sensor_reading(run.truth.nodes(r, fluid ? kFluidTank : kWorkspace), spec.sensors, sensor_random);
+      s.inputs(r, 2) = sensor_reading(run.truth.nodes(r, kCoolant), spec.sensors, sensor_random);
+      s.inputs(r, 3) = load.speed_rpm;
+      if (fluid) s.inputs(r, 4) = load.fluid_on ? 1.0 : 0.0;
+    }
   }
   run.probe = twin_probe_options(spec.probe);
   run.probe_seed = probe_seed_of(seed);
@@ -383,7 +609,7 @@ Scenario reprobe(const SimulatedCase& run, std::uint64_t probe_seed) {
 
 SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed) {
   const auto info = find_case(name);
-  if (!info) throw std::invalid_argument("unknown case '" + std::string(name) + "' (A, B, C, D or S16)");
+  if (!info) throw std::invalid_argument("unknown case '" + std::string(name) + "' (A, B, C, D, S16 or H1-H5)");
   const std::uint64_t s = seed.value_or(info->default_seed);
   if (info->name == "S16") return simulate_spindle_recording(*info, s);
   return simulate_load_case(load_case_spec(name), s);

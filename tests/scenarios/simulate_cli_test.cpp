@@ -88,6 +88,19 @@ TEST_CASE("alc simulate: --case all --summary prints the figures of A-D") {
   CHECK_THAT(r.out, !Catch::Matchers::Contains("| S16 |"));
 }
 
+TEST_CASE("alc simulate: --case heldout --summary prints the figures of H1-H5 and --list names them") {
+  const CliResult r = run_alc("simulate --case heldout --summary");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  for (const std::string row : {"| H1 | 201 | 144.0 |", "| H2 | 202 | 192.0 |", "| H3 | 203 | 48.0 |", "| H4 |", "| H5 |"})
+    CHECK_THAT(r.out, Catch::Matchers::Contains(row));
+  CHECK_THAT(r.out, !Catch::Matchers::Contains("| A |"));
+  const CliResult list = run_alc("simulate --list");
+  for (const std::string name : {"H1  144 h  every 60 s", "H2  192 h  every 300 s", "H3  48 h  every 10 s"})
+    CHECK_THAT(list.out, Catch::Matchers::Contains(name));
+  CHECK(run_alc("simulate --case heldout --out x.csv").exit_code == 2);
+}
+
 TEST_CASE("alc simulate: usage errors go to stderr with exit code 2") {
   SECTION("unknown case") {
     const CliResult r = run_alc("simulate --case E --out x.csv");

@@ -4,8 +4,13 @@
 //
 // A–D: the C-axis twin (thermal_twin.hpp), 8 days at 1-minute sampling, in the spirit of the
 // ALC paper's load cases (seed 004, §3). S16: a recording-like spindle scenario (spindle_twin.hpp)
-// with sixteen temperatures at 15 s and sparse measurements. docs/twin.md has the figures.
+// with sixteen temperatures at 15 s and sparse measurements. H1–H5: held-out variants of the C-axis
+// twin whose physics differ from A–D (other machine, sensor faults, sampling, a move, creep, gaps,
+// an unmeasured heat source), for reporting on cases the defaults were not tuned on. docs/twin.md
+// has the figures.
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -29,7 +34,9 @@ struct LoadCaseInfo {
 const std::vector<LoadCaseInfo>& load_cases();
 // Recording-like scenarios listed apart from A–D (S16).
 const std::vector<LoadCaseInfo>& recording_cases();
-// A case of either list by name, or nullopt.
+// The held-out variants H1–H5 of the C-axis twin (docs/twin.md, "Held-out cases").
+const std::vector<LoadCaseInfo>& heldout_cases();
+// A case of any list by name, or nullopt.
 std::optional<LoadCaseInfo> find_case(std::string_view name);
 
 // Hall air next to the machine: daily cycle + slow weather + hall-door events.
@@ -95,7 +102,46 @@ struct DriftParams {
   double time_constant_h = 48.0;        // [h]
 };
 
-// Everything that defines one of the cases A–D.
+// A temperature sensor of a held-out case: where it sits and how it fails.
+// reading = Σ_i node_weights[i] T_i + ambient_weight T_hall + drift, with noise and quantisation.
+struct SensorPlacement {
+  std::string name;                         // column name, "T_BED"
+  std::array<double, kTwinNodes> node_weights{};  // [-] TwinNode order
+  double ambient_weight = 0.0;              // [-] share of the hall air
+  double drift_K_per_day = 0.0;             // [K/day] calibration drift, linear from the start
+  double dead_after_h = std::numeric_limits<double>::infinity();  // [h] from then on stuck at its last reading
+};
+
+// A heat source no input sees (a spindle head or hydraulic unit whose state is not logged): on/off
+// periods of log-uniform length, the heat warming a hidden first-order node whose excess temperature
+// deforms the structure with `gains`. What it adds goes into LoadProfile::drift.
+struct HiddenSource {
+  bool enabled = false;
+  double rise_K = 0.0;                      // [K] excess temperature held on forever
+  double time_constant_h = 3.0;             // [h]
+  double on_min_h = 0.5, on_max_h = 8.0;    // [h]
+  double off_min_h = 0.5, off_max_h = 10.0; // [h]
+  std::array<double, 7> gains{};            // [µm/K], [µm/(m K)] per error
+};
+
+// What makes a held-out case differ from A–D beyond the parameters above. The default (empty)
+// changes nothing: A–D are simulated exactly as before.
+struct VariantSpec {
+  std::vector<SensorPlacement> sensors;     // empty: T_ENV, T_WS (T_CF), T_COOL as in A–D
+  // Slow creep (settling of a new foundation): amplitude (1 − exp(−t/τ)) per error, monotone.
+  std::array<double, 7> creep{};            // [µm], [µm/m] reached after long
+  double creep_time_constant_h = 96.0;      // [h]
+  // A machine move or repair: from `move_at_h` on, the errors jump by `move_offset` and the bed's
+  // gains are scaled by `move_bed_gain_factor` (the machine stands on another foundation).
+  double move_at_h = std::numeric_limits<double>::infinity();  // [h]
+  std::array<double, 7> move_offset{};      // [µm], [µm/m]
+  double move_bed_gain_factor = 1.0;        // [-]
+  HiddenSource hidden;
+  // Gaps in the data: no rows logged in [start, end) [h] (the logger was off).
+  std::vector<std::pair<double, double>> gaps_h;
+};
+
+// Everything that defines one of the cases A–D and H1–H5.
 struct LoadCaseSpec {
   LoadCaseInfo info;
   AmbientParams ambient;
@@ -106,16 +152,18 @@ struct LoadCaseSpec {
   DriftParams drift;
   ThermalTwinParams twin;  // reference_temperature_C is replaced by the start equilibrium
   double start_h = 8.0;    // [h] after Monday 00:00: when the run (and its calibration phase) starts
+  VariantSpec variant;     // held-out cases only
 };
 
-// The specification of case A, B, C or D; throws std::invalid_argument for another name.
+// The specification of case A–D or H1–H5; throws std::invalid_argument for another name.
 LoadCaseSpec load_case_spec(std::string_view name);
 
 // What happened to the machine, sample by sample (before any sensor saw it).
 struct LoadProfile {
-  std::vector<double> time_s;         // [s] from 0 (= LoadCaseSpec::start_h), uniform
+  std::vector<double> time_s;         // [s] from 0 (= LoadCaseSpec::start_h), uniform but for gaps
   std::vector<ThermalLoad> loads;     // loads[k] acts from time_s[k] for one step
-  Eigen::MatrixXd drift;              // samples x errors [µm] / [µm/m]
+  Eigen::MatrixXd drift;              // samples x errors [µm] / [µm/m]; held-out cases add creep, the
+                                      // move's offset and the hidden source (VariantSpec) to it
 };
 
 LoadProfile make_load_profile(const LoadCaseSpec& spec, std::uint64_t seed);
@@ -143,9 +191,9 @@ probing::TwinProbe make_probe(const SimulatedCase& run, std::uint64_t probe_seed
 // inputs and names, other measurements. reprobe(run, run.probe_seed) gives run.scenario.
 Scenario reprobe(const SimulatedCase& run, std::uint64_t probe_seed);
 
-// Simulates case A–D from its spec.
+// Simulates case A–D or H1–H5 from its spec.
 SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed);
-// Simulates any built-in case (A–D, S16) by name, with its default seed unless one is given.
+// Simulates any built-in case (A–D, S16, H1–H5) by name, with its default seed unless one is given.
 // Throws std::invalid_argument for an unknown name.
 SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed = std::nullopt);
 

@@ -1,0 +1,188 @@
+// Held-out cases H1-H5: determinism for their seeds, the physics each claims (against the same
+// case and seed with that physics switched off), and a replay with the default set that finishes
+// with finite indicators.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "runtime/replay.hpp"
+#include "scenarios/load_cases.hpp"
+#include "scenarios/scenario_csv.hpp"
+#include "scenarios/thermal_twin.hpp"
+
+namespace sc = alc::scenarios;
+
+namespace {
+
+constexpr double kHour = 3600.0;  // [s]
+constexpr double kRoundOff = 1e-9;  // [µm] difference of two sums that differ by one term
+
+std::string csv_text(const sc::Scenario& s) {
+  std::ostringstream out;
+  sc::write_scenario_csv(out, s);
+  return out.str();
+}
+
+// Row spacings [s] of a run.
+std::vector<double> spacings(const sc::Scenario& s) {
+  std::vector<double> d;
+  for (std::size_t k = 1; k < s.time_s.size(); ++k) d.push_back(s.time_s[k] - s.time_s[k - 1]);
+  return d;
+}
+
+double variance(const Eigen::VectorXd& v) { return (v.array() - v.mean()).square().mean(); }
+
+}  // namespace
+
+TEST_CASE("held-out cases: H1-H5 are listed apart from A-D with their sampling") {
+  const auto& cases = sc::heldout_cases();
+  REQUIRE(cases.size() == 5);
+  const std::vector<std::string> names = {"H1", "H2", "H3", "H4", "H5"};
+  const std::vector<double> steps = {60.0, 300.0, 10.0, 60.0, 60.0};
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    CHECK(cases[i].name == names[i]);
+    CHECK(cases[i].step_s == steps[i]);
+    CHECK(cases[i].duration_h <= 192.0);
+    CHECK(!cases[i].description.empty());
+    CHECK(sc::find_case(names[i]).has_value());
+    CHECK(sc::load_case_spec(names[i]).info.name == names[i]);
+  }
+  // A-D stay the tuning set.
+  CHECK(sc::load_cases().size() == 4);
+  // A-D are not variants.
+  CHECK(sc::load_case_spec("A").variant.sensors.empty());
+}
+
+TEST_CASE("held-out cases: the same seed gives the same CSV bytes and the probe reads again alike") {
+  for (const auto& info : sc::heldout_cases()) {
+    INFO("case " << info.name);
+    const auto run = sc::simulate_case(info.name);
+    CHECK(run.seed == info.default_seed);
+    const std::string text = csv_text(run.scenario);
+    CHECK(csv_text(sc::simulate_case(info.name, info.default_seed).scenario) == text);
+    CHECK(csv_text(sc::simulate_case(info.name, info.default_seed + 1000).scenario) != text);
+    CHECK(csv_text(sc::reprobe(run, run.probe_seed)) == text);
+    // Truth, profile and scenario have the same rows.
+    CHECK(run.truth.errors.rows() == static_cast<Eigen::Index>(run.scenario.samples()));
+    CHECK(run.profile.time_s == run.scenario.time_s);
+  }
+}
+
+TEST_CASE("held-out H1: another sensor set on other nodes and a faster machine") {
+  const auto run = sc::simulate_case("H1");
+  const sc::Scenario& s = run.scenario;
+  CHECK(s.input_names == std::vector<std::string>{"T_ENV", "T_BED", "T_TBL", "T_COL", "n_C"});
+  // T_BED is the bed node plus noise.
+  const Eigen::VectorXd bed_error = s.inputs.col(1) - run.truth.nodes.col(sc::kBed);
+  CHECK(std::sqrt(bed_error.squaredNorm() / static_cast<double>(bed_error.size())) < 0.03);
+  // Other time constants: the slowest and the fastest mode are faster than A's machine's.
+  const sc::ThermalTwin h1(sc::load_case_spec("H1").twin);
+  const sc::ThermalTwin a(sc::load_case_spec("A").twin);
+  const Eigen::VectorXd tau_h1 = h1.network(false).time_constants_s();
+  const Eigen::VectorXd tau_a = a.network(false).time_constants_s();
+  CHECK(tau_h1(0) < tau_a(0));
+  CHECK(tau_h1(tau_h1.size() - 1) < 0.8 * tau_a(tau_a.size() - 1));
+}
+
+TEST_CASE("held-out H2: 300 s spacing with a drifting and a dead sensor") {
+  const auto run = sc::simulate_case("H2");
+  const sc::Scenario& s = run.scenario;
+  for (const double d : spacings(s)) REQUIRE(d == 300.0);
+  REQUIRE(s.input_names == std::vector<std::string>{"T_ENV", "T_WS", "T_COOL", "n_C"});
+  // T_COOL dies at 60 h: constant from then on, alive before.
+  const int cool = s.input_index("T_COOL");
+  const auto dead_from = static_cast<Eigen::Index>(60.0 * kHour / 300.0);
+  for (Eigen::Index r = dead_from; r < s.inputs.rows(); ++r) REQUIRE(s.inputs(r, cool) == s.inputs(dead_from - 1, cool));
+  CHECK(s.inputs.col(cool).head(dead_from).maxCoeff() - s.inputs.col(cool).head(dead_from).minCoeff() > 0.5);
+  // T_WS drifts 0.1 K/day: its offset from the workspace node grows by about 0.7 K over 7 days.
+  const int ws = s.input_index("T_WS");
+  const Eigen::VectorXd offset = s.inputs.col(ws) - run.truth.nodes.col(sc::kWorkspace);
+  const Eigen::Index day = 288;  // samples
+  const double growth = offset.tail(day).mean() - offset.head(day).mean();
+  CHECK(growth > 0.65);
+  CHECK(growth < 0.75);
+}
+
+TEST_CASE("held-out H3: 10 s spacing and a machine move at 26 h") {
+  sc::LoadCaseSpec spec = sc::load_case_spec("H3");
+  const auto moved = sc::simulate_load_case(spec, spec.info.default_seed);
+  for (const double d : spacings(moved.scenario)) REQUIRE(d == 10.0);
+  spec.variant.move_at_h = std::numeric_limits<double>::infinity();
+  const auto still = sc::simulate_load_case(spec, spec.info.default_seed);
+  const Eigen::MatrixXd change = moved.truth.errors - still.truth.errors;
+  const auto at = static_cast<Eigen::Index>(26.0 * kHour / 10.0);
+  CHECK(change.topRows(at).cwiseAbs().maxCoeff() == 0.0);
+  // From the move on every error has jumped: at least 1.5 µm (µm/m) on average.
+  for (Eigen::Index e = 0; e < change.cols(); ++e) {
+    INFO("error " << e);
+    CHECK(change.col(e).tail(change.rows() - at).cwiseAbs().mean() > 1.5);
+  }
+}
+
+TEST_CASE("held-out H4: gaps in the data, a monotone creep in the truth and strong bending") {
+  sc::LoadCaseSpec spec = sc::load_case_spec("H4");
+  const auto run = sc::simulate_load_case(spec, spec.info.default_seed);
+  // Three gaps (6 h, 0.5 h, 12 h) and no row inside one.
+  std::vector<double> gaps;
+  for (const double d : spacings(run.scenario))
+    if (d != 60.0) gaps.push_back(d);
+  CHECK(gaps == std::vector<double>{6.0 * kHour + 60.0, 0.5 * kHour + 60.0, 12.0 * kHour + 60.0});
+  for (const double t : run.scenario.time_s)
+    for (const auto& [from_h, to_h] : spec.variant.gaps_h) REQUIRE_FALSE((t >= from_h * kHour && t < to_h * kHour));
+  // Creep: the truth minus the same run without creep is monotone, with the creep's sign, and
+  // reaches most of its amplitude (1 - exp(-192/120) = 0.80).
+  const auto creep = spec.variant.creep;
+  spec.variant.creep = {};
+  const auto no_creep = sc::simulate_load_case(spec, spec.info.default_seed);
+  const Eigen::MatrixXd trend = run.truth.errors - no_creep.truth.errors;
+  for (Eigen::Index e = 0; e < trend.cols(); ++e) {
+    INFO("error " << e);
+    const double sign = creep[static_cast<std::size_t>(e)] > 0 ? 1.0 : -1.0;
+    for (Eigen::Index r = 1; r < trend.rows(); ++r) REQUIRE(sign * (trend(r, e) - trend(r - 1, e)) >= -kRoundOff);
+    CHECK(sign * trend(trend.rows() - 1, e) > 0.75 * std::abs(creep[static_cast<std::size_t>(e)]));
+  }
+  // The quadratic bending of the cradle reaches several µm/m on E_A0C (A's machine: a few tenths).
+  const Eigen::VectorXd gradient = run.truth.nodes.col(sc::kCradle) - run.truth.nodes.col(sc::kBed);
+  CHECK(spec.twin.quadratic[4] * gradient.squaredNorm() / static_cast<double>(gradient.size()) > 2.0);
+  CHECK(spec.twin.quadratic[4] * gradient.cwiseAbs2().maxCoeff() > 8.0);
+}
+
+TEST_CASE("held-out H5: most of the error comes from the unmeasured source") {
+  sc::LoadCaseSpec spec = sc::load_case_spec("H5");
+  const auto run = sc::simulate_load_case(spec, spec.info.default_seed);
+  spec.variant.hidden.enabled = false;
+  const auto without = sc::simulate_load_case(spec, spec.info.default_seed);
+  // The inputs do not change: the source is neither sensed nor logged.
+  CHECK(run.scenario.inputs == without.scenario.inputs);
+  double hidden = 0.0, rest = 0.0;
+  for (Eigen::Index e = 0; e < 4; ++e) {  // the linear errors
+    hidden += variance(run.truth.errors.col(e) - without.truth.errors.col(e));
+    rest += variance(without.truth.errors.col(e));
+  }
+  INFO("variance from the hidden source " << hidden << " µm², from the rest " << rest << " µm²");
+  CHECK(hidden > 1.5 * rest);
+}
+
+TEST_CASE("held-out cases: a replay with the default set ends with finite indicators") {
+  for (const auto& info : sc::heldout_cases()) {
+    INFO("case " << info.name);
+    const auto run = sc::simulate_case(info.name);
+    const alc::runtime::ReplayReport r = alc::runtime::replay(run.scenario, alc::AlcParameters{});
+    CHECK(r.M > 0);
+    CHECK(r.updates > 0);
+    CHECK(r.Pd >= 0.0);
+    CHECK(r.Pd <= 100.0);
+    REQUIRE(r.outputs.size() == 7);
+    for (const auto& o : r.outputs) {
+      INFO(o.name);
+      CHECK(o.measurements > 0);
+      CHECK(std::isfinite(o.P99));
+      CHECK(std::isfinite(o.RMSE));
+      CHECK(std::isfinite(o.P99_uncompensated));
+    }
+    CHECK(std::isfinite(r.mean_p99(alc::ErrorKind::Linear)));
+  }
+}
