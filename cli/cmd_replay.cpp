@@ -42,7 +42,7 @@ struct ReplayArgs {
   bool no_refit = false;
   bool no_confirm = false;
   std::string schedule = "paper", uncertainty_fraction = "0.5", min_interval = "0.5", max_interval = "12";
-  bool no_guard = false;
+  bool guard = false;
   std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
@@ -67,7 +67,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
                             {"uncertainty-fraction", a.uncertainty_fraction},
                             {"min-interval", a.min_interval},
                             {"max-interval", a.max_interval},
-                            {"no-guard", a.no_guard ? "true" : "false"}};
+                            {"guard", a.guard ? "true" : "false"}};
   if (!a.since.empty()) o.emplace_back("since", a.since);
   try {
     return runtime::parameters_of(o);
@@ -319,9 +319,9 @@ void add_replay_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--min-interval", args->min_interval, "Adaptive: shortest Post-CP interval [h]")->capture_default_str();
   cmd->add_option("--max-interval", args->max_interval, "Adaptive: longest Post-CP interval [h]")->capture_default_str();
-  cmd->add_flag("--no-guard", args->no_guard,
-                "Never hold compensation off (by default an output's compensation is held off while, on recent "
-                "probes, its residual exceeds both the error without compensation and the ACL)");
+  cmd->add_flag("--guard", args->guard,
+                "Hold an output's compensation off while, on recent probes, its residual is clearly larger than the "
+                "error without compensation and beyond the ACL (off by default; docs/adaptive.md)");
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
   cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");

@@ -49,7 +49,7 @@ const std::vector<ParameterOption>& parameter_options() {
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL", Stage::CpEnd},
       {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
       {"max-interval", "h", kNumber, "Adaptive: longest Post-CP interval", Stage::CpEnd},
-      {"no-guard", "-", kFlag, "Never hold compensation off (the guard compares it with none on recent probes)",
+      {"guard", "-", kFlag, "Hold an output's compensation off while it is clearly worse than none on recent probes",
        Stage::CpEnd},
   };
   return options;
@@ -96,7 +96,7 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   else if (name == "structure-refresh") p.structure_refresh = number_or_inf(1.0);
   else if (name == "no-refit") p.refit_on_probe = !parse_flag(name, text);
   else if (name == "no-confirm") p.confirm_breach = !parse_flag(name, text);
-  else if (name == "no-guard") p.guard = !parse_flag(name, text);
+  else if (name == "guard") p.guard = parse_flag(name, text);
   else if (name == "uncertainty-fraction") p.uncertainty_fraction = number(1.0);
   else if (name == "min-interval") p.min_interval_s = number(3600.0);
   else if (name == "max-interval") p.max_interval_s = number(3600.0);

@@ -58,7 +58,7 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
     j["adaptive"] = {{"uncertainty_fraction", number(p.uncertainty_fraction)},
                      {"min_interval_s", number(p.min_interval_s)},
                      {"max_interval_s", number(p.max_interval_s)}};
-  if (!p.guard) j["guard"] = false;
+  if (p.guard) j["guard"] = true;
   return j;
 }
 

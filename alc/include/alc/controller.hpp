@@ -63,8 +63,9 @@ struct AlcParameters {
   double uncertainty_fraction = 0.5;       // [-] adaptive: probe when the predicted sigma reaches this x ACL
   double min_interval_s = 1800.0;          // [s] adaptive: bounds of the Post-CP interval
   double max_interval_s = 12 * 3600.0;     // [s]
-  bool guard = true;                       // hold an output's compensation off while, on recent Post-CP probes,
-                                           // it left a larger error than no compensation (docs/adaptive.md)
+  bool guard = false;                      // hold an output's compensation off while, on recent Post-CP probes,
+                                           // it left a clearly larger error than no compensation; off by default:
+                                           // on the held-out cases it made things worse (docs/adaptive.md)
 
   // Empty if valid, else the first violated constraint naming the field and value.
   std::string validate() const;
