@@ -443,8 +443,21 @@ GreyBaseline fit_grey(const std::vector<double>& measured_at, const std::vector<
     for (std::size_t c = 0; c < cols.size(); ++c) A(r, static_cast<Eigen::Index>(c) + 1) = U(static_cast<Eigen::Index>(j), cols[c]);
     rhs(r) = dy;
   }
-  const Eigen::VectorXd theta = A.colPivHouseholderQr().solve(rhs);
+  Eigen::VectorXd theta = A.colPivHouseholderQr().solve(rhs);
   if (!theta.allFinite()) return g;
+  // Stability: a time constant 1/a longer than the span of the measurements (or growth, a <= 0) is
+  // not what the data can show, and the whitened equation would diverge after it. The problem is
+  // a convex quadratic in (a, b), so the least squares with a >= a_min has a = a_min then.
+  const double a_min = 3600.0 / (measured_at[m - 1] - measured_at[0]);
+  g.a_constrained = !(theta(0) >= a_min);
+  if (g.a_constrained) {
+    theta(0) = a_min;
+    if (A.cols() > 1) {
+      const Eigen::VectorXd b = A.rightCols(A.cols() - 1).colPivHouseholderQr().solve(rhs - a_min * A.col(0));
+      if (!b.allFinite()) return g;
+      theta.tail(b.size()) = b;
+    }
+  }
   g.a = theta(0);
   for (std::size_t c = 0; c < cols.size(); ++c) g.b(cols[c]) = theta(static_cast<Eigen::Index>(c) + 1);
   g.ok = true;

@@ -143,3 +143,27 @@ TEST_CASE("baselines: names and lists") {
   CHECK_THROWS_AS(parse_baseline_list(""), std::invalid_argument);
   CHECK(contiguous_folds(7, 3) == std::vector<int>{0, 0, 0, 1, 1, 2, 2});
 }
+
+TEST_CASE("baselines: GM(1 N) keeps a stable time constant when least squares gives growth") {
+  // An error that grows exponentially while the input is constant: the grey equation's least
+  // squares gives a < 0; the fit takes a = 1 / (span of the measurements) = 1/6 per hour instead.
+  InputHistory h;
+  h.input_names = {"T_1"};
+  h.inputs.resize(2 * 361, 1);
+  for (int k = 0; k < 2 * 361; ++k) {
+    h.time_s.push_back(60.0 * k);
+    h.inputs(k, 0) = 20.0 + (k > 180 ? 0.5 : 0.0);
+  }
+  std::vector<double> at, values;
+  for (double t = 0; t <= 6 * 3600; t += 600) {
+    at.push_back(t);
+    values.push_back(std::exp(t / 7200));
+  }
+  const GreyBaseline g = fit_grey(at, values, h);
+  REQUIRE(g.ok);
+  CHECK(g.a_constrained);
+  CHECK_THAT(g.a, WithinRel(1.0 / 6.0, 1e-12));
+  const Eigen::VectorXd p = g.predict_series(h.time_s, Eigen::MatrixXd(h.inputs));
+  CHECK(p.allFinite());
+  CHECK(p.cwiseAbs().maxCoeff() < 1e3);
+}

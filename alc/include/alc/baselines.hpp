@@ -87,7 +87,9 @@ class SvrBaseline {
 // since the first measurement, dy = y - y(t1) and du = u - u(t1); their accumulations (AGO) as time
 // integrals from t1, Y1(t) of dy by the trapezoid rule over the measurements (Eq. 4's background
 // value), U_i(t) of du_i over the input samples (held from sample to sample); the grey equation
-// dy(t_k) + a Y1(t_k) = sum_i b_i U_i(t_k) for k = 2..m by least squares; the whitened equation
+// dy(t_k) + a Y1(t_k) = sum_i b_i U_i(t_k) for k = 2..m by least squares with a >= 1 / (t_m - t1)
+// (a stable time constant no longer than the data's span: a = that bound if the unconstrained
+// solution lies below it, b then refitted); the whitened equation
 // (Eq. 5 with u = sum b_i U_i) solved exactly: dy' = -a dy + sum_i b_i du_i from dy(t1) = 0.
 struct GreyBaseline {
   double a = 0.0;                  // [1/h] development coefficient
@@ -96,6 +98,7 @@ struct GreyBaseline {
   double y1 = 0.0;                 // measured output at t1
   Eigen::VectorXd u1;              // inputs at t1
   bool ok = false;                 // false: predicts y1 (too few measurements, no finite solution)
+  bool a_constrained = false;      // least squares gave a < a_min = 1 / (span of the measurements)
   // The prediction at every sample of a series (time in s, inputs per sample), simulated from t1;
   // samples before t1 get y1. A NaN input holds its last finite value.
   Eigen::VectorXd predict_series(const std::vector<double>& time_s, const Eigen::MatrixXd& inputs) const;
