@@ -512,6 +512,8 @@ Eigen::MatrixXd BaselineModel::predict(const std::vector<double>& time_s, const 
       double v = 0.0;
       if (kind == BaselineKind::Svr) {
         v = svr[uo].predict(x);
+      } else if (kind == BaselineKind::Mlr) {
+        v = mlr.predict(x)(o);
       } else {
         const LinearBaseline& l = linear[uo];
         v = l.intercept;
@@ -534,8 +536,8 @@ BaselineModel fit_baseline(BaselineKind kind, const InputHistory& history, const
   const auto n_in = history.inputs.cols();
   const bool history_ok = !history.time_s.empty() &&
                           history.inputs.rows() == static_cast<Eigen::Index>(history.time_s.size());
-  StaticRegression mlr;
-  if (kind == BaselineKind::Mlr) mlr = fit_static_regression(history, output_names, probes).model;
+  if (kind == BaselineKind::Mlr) b.mlr = fit_static_regression(history, output_names, probes).model;
+  const StaticRegression& mlr = b.mlr;
   for (Eigen::Index o = 0; o < n_out; ++o) {
     const ProbeRows pr = history_ok ? probe_rows(history, probes, o, n_out) : ProbeRows{};
     const auto m = static_cast<Eigen::Index>(pr.values.size());

@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "alc/static_regression.hpp"
 #include "alc/thermal_model.hpp"
 
 namespace alc {
@@ -112,6 +113,7 @@ GreyBaseline fit_grey(const std::vector<double>& measured_at, const std::vector<
 struct BaselineModel {
   BaselineKind kind = BaselineKind::Mlr;
   std::vector<std::string> input_names, output_names;
+  StaticRegression mlr;                 // mlr: the static baseline (its predictions, bit for bit)
   std::vector<LinearBaseline> linear;   // mlr, lasso, ols: per output
   std::vector<SvrBaseline> svr;         // per output
   std::vector<GreyBaseline> grey;       // per output
