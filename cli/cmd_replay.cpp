@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -52,6 +53,7 @@ struct ReplayArgs {
   std::string nc_out;          // directory for the NC output, "" = none
   std::string dialect = "linuxcnc";
   std::string machine;         // machine config (TOML), "" = built-in defaults
+  std::string baselines;       // the seeds' static models beside ALC: "mlr,svr", "all"; "" = none
 };
 
 // The parameters of the options given (one parser for replay's options and a study grid's keys).
@@ -106,6 +108,20 @@ void print_report(std::ostream& os, const std::string& title, const runtime::Rep
   os << "  mean P99 angular: ALC " << fmt(r.mean_p99(ErrorKind::Angular)) << " µm/m, baseline "
      << fmt(r.mean_p99(ErrorKind::Angular, true)) << " µm/m, uncompensated "
      << fmt(r.mean_p99_uncompensated(ErrorKind::Angular)) << " µm/m\n";
+  for (const auto& b : r.baselines) {
+    std::snprintf(line, sizeof line, "  %-6s mean P99 linear %8s µm, angular %8s µm/m", b.name.c_str(),
+                  fmt(b.mean_p99(ErrorKind::Linear)).c_str(), fmt(b.mean_p99(ErrorKind::Angular)).c_str());
+    os << line;
+    if (!b.selected.empty()) {
+      os << "; inputs selected:";
+      for (const auto& [output, inputs] : b.selected) {
+        os << " " << output << " ";
+        for (std::size_t i = 0; i < inputs.size(); ++i) os << (i ? "," : "") << inputs[i];
+        if (inputs.empty()) os << "none";
+      }
+    }
+    os << "\n";
+  }
 }
 
 double mean_over(const std::vector<runtime::OutputIndicators>& outs, double runtime::OutputIndicators::*f) {
@@ -135,6 +151,17 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, run
                   fmt(r.Pd).c_str(), r.M, r.ng_phases, r.updates, fmt(r.mean_p99(ErrorKind::Linear, true)).c_str(),
                   fmt(r.mean_p99_uncompensated(ErrorKind::Linear)).c_str());
     os << line;
+  }
+  if (rows.empty() || rows.front().second.baselines.empty()) return;
+  // The seeds' static models beside ALC: mean linear P99 per case.
+  os << "\nmean linear P99 [µm]\n" << std::left;
+  os << "  " << std::setw(5) << "case" << std::right << std::setw(8) << "ALC";
+  for (const auto& b : rows.front().second.baselines) os << std::setw(8) << b.name;
+  os << std::setw(8) << "uncomp" << "\n";
+  for (const auto& [name, r] : rows) {
+    os << "  " << std::left << std::setw(5) << name << std::right << std::setw(8) << fmt(r.mean_p99(ErrorKind::Linear));
+    for (const auto& b : r.baselines) os << std::setw(8) << fmt(b.mean_p99(ErrorKind::Linear));
+    os << std::setw(8) << fmt(r.mean_p99_uncompensated(ErrorKind::Linear)) << "\n";
   }
 }
 
@@ -178,6 +205,14 @@ void print_nc_summary(const std::string& source, const std::filesystem::path& di
 void run_replay(const ReplayArgs& a) {
   if (a.file.empty() == a.case_name.empty()) throw UsageError("give exactly one of FILE.csv or --case");
   const AlcParameters params = parameters_from(a);
+  std::vector<BaselineKind> baselines;
+  if (!a.baselines.empty()) {
+    try {
+      baselines = parse_baseline_list(a.baselines);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("--baselines: ") + e.what());
+    }
+  }
   std::vector<std::pair<std::string, scenarios::Scenario>> cases;
   if (!a.file.empty()) {
     cases.emplace_back(a.file, scenarios::read_scenario_csv(a.file));
@@ -226,6 +261,7 @@ void run_replay(const ReplayArgs& a) {
     o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
     o.machine = machine;
     o.software_version = std::string("alc ") + ALC_VERSION;
+    o.baselines = baselines;
     if (!a.nc_out.empty()) o.nc = runtime::NcOutputSetup{nc_dir_of(a, name, cases.size() > 1), dialect};
     kill.kill_at_s = std::isfinite(a.kill_at_h) ? t0 + a.kill_at_h * 3600.0 : kInf;
     if (std::isfinite(kill.kill_at_s)) o.observers.push_back(&kill);
@@ -330,6 +366,11 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--kill-at", args->kill_at_h,
                   "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
                   "time, leaving the history as a crash would");
+  cmd->add_option("--baselines", args->baselines,
+                  "The seeds' static models beside ALC, fitted once on the CP measurements and evaluated on the "
+                  "same rows: a comma-separated list of mlr, lasso, svr, gm, ols, or all (docs/baselines.md); "
+                  "not with --resume")
+      ->type_name("LIST");
   cmd->add_flag("--json", args->json, "Print the result as JSON instead of tables");
   cmd->add_option("--residuals", args->residuals,
                   "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "

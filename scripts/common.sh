@@ -7,7 +7,7 @@ ALC_JOBS="${ALC_JOBS:-$(nproc)}"
 
 # Build dependencies, all from Debian 12.
 ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsqlite3-dev sqlite3 libspdlog-dev
-              catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev)
+              catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev libsvm-dev)
 
 # ensure_packages PKG...: apt-get install the ones that are not installed yet.
 ensure_packages() {

@@ -13,6 +13,37 @@ Eigen::VectorXd StaticRegression::predict(const Eigen::VectorXd& inputs) const {
   return intercept + coefficients * u;
 }
 
+ProbeRows probe_rows(const InputHistory& history, const std::vector<ProbeRecord>& probes, Eigen::Index output,
+                     Eigen::Index outputs) {
+  ProbeRows r;
+  if (history.time_s.empty()) return r;
+  for (const ProbeRecord& p : probes) {
+    if (p.errors.size() != outputs || !std::isfinite(p.errors(output)) || p.time_s < history.time_s.front()) continue;
+    const auto it = std::upper_bound(history.time_s.begin(), history.time_s.end(), p.time_s);
+    const Eigen::Index s = static_cast<Eigen::Index>(it - history.time_s.begin()) - 1;
+    if (!history.inputs.row(s).allFinite()) continue;
+    r.rows.push_back(s);
+    r.values.push_back(p.errors(output));
+    r.time_s.push_back(p.time_s);
+  }
+  return r;
+}
+
+std::vector<Eigen::Index> varying_inputs(const InputHistory& history, const std::vector<Eigen::Index>& rows) {
+  std::vector<Eigen::Index> varying;
+  if (rows.empty()) return varying;
+  for (Eigen::Index i = 0; i < history.inputs.cols(); ++i) {
+    double lo = history.inputs(rows[0], i);
+    double hi = lo;
+    for (const Eigen::Index s : rows) {
+      lo = std::min(lo, history.inputs(s, i));
+      hi = std::max(hi, history.inputs(s, i));
+    }
+    if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi))) varying.push_back(i);
+  }
+  return varying;
+}
+
 StaticRegressionFit fit_static_regression(const InputHistory& history, const std::vector<std::string>& output_names,
                                           const std::vector<ProbeRecord>& probes, double ridge) {
   StaticRegressionFit fit;
@@ -31,16 +62,9 @@ StaticRegressionFit fit_static_regression(const InputHistory& history, const std
     return fit;
   }
   for (Eigen::Index o = 0; o < n_out; ++o) {
-    std::vector<Eigen::Index> rows;
-    std::vector<double> ys;
-    for (const ProbeRecord& p : probes) {
-      if (p.errors.size() != n_out || !std::isfinite(p.errors(o)) || p.time_s < history.time_s.front()) continue;
-      const auto it = std::upper_bound(history.time_s.begin(), history.time_s.end(), p.time_s);
-      const Eigen::Index s = static_cast<Eigen::Index>(it - history.time_s.begin()) - 1;
-      if (!history.inputs.row(s).allFinite()) continue;
-      rows.push_back(s);
-      ys.push_back(p.errors(o));
-    }
+    const ProbeRows pr = probe_rows(history, probes, o, n_out);
+    const std::vector<Eigen::Index>& rows = pr.rows;
+    const std::vector<double>& ys = pr.values;
     const auto m = static_cast<Eigen::Index>(ys.size());
     fit.measurements.push_back(static_cast<int>(m));
     if (m < 2) {
@@ -49,17 +73,7 @@ StaticRegressionFit fit_static_regression(const InputHistory& history, const std
                      std::to_string(m) + " measurements";
       continue;
     }
-    // Inputs that vary over the measurements; the others would only duplicate b0.
-    std::vector<Eigen::Index> varying;
-    for (Eigen::Index i = 0; i < n_in; ++i) {
-      double lo = history.inputs(rows[0], i);
-      double hi = lo;
-      for (const Eigen::Index s : rows) {
-        lo = std::min(lo, history.inputs(s, i));
-        hi = std::max(hi, history.inputs(s, i));
-      }
-      if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi))) varying.push_back(i);
-    }
+    const std::vector<Eigen::Index> varying = varying_inputs(history, rows);
     Eigen::MatrixXd phi(m, 1 + static_cast<Eigen::Index>(varying.size()));
     phi.col(0).setOnes();
     for (Eigen::Index r = 0; r < m; ++r)

@@ -46,11 +46,14 @@ double ReplayReport::mean_p99(ErrorKind kind, bool of_baseline) const {
   return mean_of(of_baseline ? baseline : outputs, kind, &OutputIndicators::P99);
 }
 
+double BaselineReport::mean_p99(ErrorKind kind) const { return mean_of(outputs, kind, &OutputIndicators::P99); }
+
 double ReplayReport::mean_p99_uncompensated(ErrorKind kind) const {
   return mean_of(outputs, kind, &OutputIndicators::P99_uncompensated);
 }
 
-Evaluation::Evaluation(const scenarios::Scenario& scenario) : scenario_(scenario) {}
+Evaluation::Evaluation(const scenarios::Scenario& scenario, std::vector<BaselineKind> baselines)
+    : scenario_(scenario), baseline_kinds_(std::move(baselines)) {}
 
 void Evaluation::on_cycle(const Cycle& cycle) {
   if (cycle.kind() != Cycle::Kind::Sample) return;
@@ -60,6 +63,8 @@ void Evaluation::on_cycle(const Cycle& cycle) {
     // Static baseline: MLR on the CP measurements, fitted once and never updated.
     baseline_ = fit_static_regression(cs.history, scenario_.output_names, cs.probes).model;
     baseline_fitted_ = true;
+    for (const BaselineKind kind : baseline_kinds_)
+      baseline_models_.push_back(fit_baseline(kind, cs.history, scenario_.output_names, cs.probes));
   }
 }
 
@@ -78,6 +83,7 @@ void Evaluation::add(std::size_t row, const Eigen::VectorXd& predicted) {
   const auto r = static_cast<Eigen::Index>(row);
   const auto n = static_cast<Eigen::Index>(scenario_.output_names.size());
   time_s_.push_back(scenario_.time_s[row]);
+  rows_.push_back(row);
   const Eigen::VectorXd inputs = scenario_.inputs.row(r).transpose();
   const Eigen::VectorXd base = baseline_fitted_ ? baseline_.predict(inputs) : Eigen::VectorXd::Zero(n);
   for (Eigen::Index k = 0; k < n; ++k) {
@@ -110,17 +116,44 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
   rep.Pd = rep.duration_s > 0 ? probing::productivity_percent(rep.M, rep.duration_s)
                               : std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = scenario_.output_names.size();
-  for (std::size_t k = 0; k < n; ++k) {
-    std::vector<double> measured, predicted, baseline;
-    for (std::size_t i = 0; i < time_s_.size(); ++i) {
-      const double m = measured_[i * n + k];
-      if (std::isnan(m)) continue;
-      measured.push_back(m);
-      predicted.push_back(predicted_rows_[i * n + k]);
-      baseline.push_back(baseline_rows_[i * n + k]);
+  // The indicators of each output over the evaluated rows where it was measured, for predictions
+  // prediction(i, k) at evaluated row i.
+  const auto indicators = [&](const auto& prediction) {
+    std::vector<OutputIndicators> outs;
+    for (std::size_t k = 0; k < n; ++k) {
+      std::vector<double> measured, predicted;
+      for (std::size_t i = 0; i < time_s_.size(); ++i) {
+        const double m = measured_[i * n + k];
+        if (std::isnan(m)) continue;
+        measured.push_back(m);
+        predicted.push_back(prediction(i, k));
+      }
+      outs.push_back(evaluate(scenario_.output_names[k], measured, predicted));
     }
-    rep.outputs.push_back(evaluate(scenario_.output_names[k], measured, predicted));
-    rep.baseline.push_back(evaluate(scenario_.output_names[k], measured, baseline));
+    return outs;
+  };
+  rep.outputs = indicators([&](std::size_t i, std::size_t k) { return predicted_rows_[i * n + k]; });
+  rep.baseline = indicators([&](std::size_t i, std::size_t k) { return baseline_rows_[i * n + k]; });
+  for (std::size_t j = 0; j < baseline_kinds_.size(); ++j) {
+    // Before the end of CP a model is not fitted yet and predicts 0, as the static baseline does.
+    BaselineModel model;
+    if (j < baseline_models_.size()) model = baseline_models_[j];
+    model.kind = baseline_kinds_[j];
+    const Eigen::MatrixXd p = j < baseline_models_.size()
+                                  ? model.predict(scenario_.time_s, scenario_.inputs, rows_)
+                                  : Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows_.size()),
+                                                          static_cast<Eigen::Index>(n));
+    BaselineReport b;
+    b.name = std::string(baseline_name(model.kind));
+    b.outputs = indicators([&](std::size_t i, std::size_t k) {
+      return p(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k));
+    });
+    if (model.kind == BaselineKind::Lasso || model.kind == BaselineKind::Ols) {
+      const auto selected = model.selected_inputs();
+      for (std::size_t k = 0; k < n && k < selected.size(); ++k)
+        b.selected.emplace_back(scenario_.output_names[k], selected[k]);
+    }
+    rep.baselines.push_back(std::move(b));
   }
   return rep;
 }

@@ -19,8 +19,11 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
       options_(std::move(options)),
       controller_(scenario.input_names, scenario.output_names, options_.parameters, options_.schedule),
       source_(scenario),
-      evaluation_(scenario),
+      evaluation_(scenario, options_.baselines),
       driver_(controller_) {
+  if (options_.resume && !options_.baselines.empty())
+    throw ResumeRefused("baselines cannot be evaluated on a resumed run (they are fitted once at the end of CP "
+                        "and not kept by its snapshots); replay without --resume");
   driver_.add(evaluation_);
   const bool machine = !options_.db.empty() || options_.nc.has_value();
   if (machine) driver_.set_machine({options_.machine.chain, {}});

@@ -41,7 +41,7 @@ std::vector<OutputIndicators> outputs_of(const nlohmann::json& j) {
 }  // namespace
 
 nlohmann::json report_json(const ReplayReport& r) {
-  return {{"outputs", outputs_json(r.outputs)},
+  nlohmann::json j = {{"outputs", outputs_json(r.outputs)},
           {"Pd", r.Pd},
           {"M", r.M},
           {"ng_phases", r.ng_phases},
@@ -50,12 +50,31 @@ nlohmann::json report_json(const ReplayReport& r) {
           {"cp_end_h", std::isfinite(r.cp_end_s) ? nlohmann::json(r.cp_end_s / 3600.0) : nlohmann::json(nullptr)},
           {"duration_h", r.duration_s / 3600.0},
           {"baseline", {{"outputs", outputs_json(r.baseline)}}}};
+  if (r.baselines.empty()) return j;  // without --baselines the document is as it always was
+  nlohmann::json& baselines = j["baselines"] = nlohmann::json::object();
+  for (const BaselineReport& b : r.baselines) {
+    nlohmann::json& e = baselines[b.name] = {{"outputs", outputs_json(b.outputs)}};
+    if (b.selected.empty()) continue;
+    nlohmann::json& selected = e["selected"] = nlohmann::json::object();
+    for (const auto& [output, inputs] : b.selected) selected[output] = inputs;
+  }
+  return j;
 }
 
 ReplayReport report_from_json(const nlohmann::json& j) {
   ReplayReport r;
   r.outputs = outputs_of(j.at("outputs"));
   r.baseline = outputs_of(j.at("baseline").at("outputs"));
+  if (j.contains("baselines"))
+    for (const auto& [name, e] : j.at("baselines").items()) {
+      BaselineReport b;
+      b.name = name;
+      b.outputs = outputs_of(e.at("outputs"));
+      if (e.contains("selected"))
+        for (const auto& [output, inputs] : e.at("selected").items())
+          b.selected.emplace_back(output, inputs.get<std::vector<std::string>>());
+      r.baselines.push_back(std::move(b));
+    }
   r.Pd = number_of(j.at("Pd"));
   r.M = j.at("M").get<int>();
   r.ng_phases = j.at("ng_phases").get<int>();

@@ -26,6 +26,19 @@ struct StaticRegressionFit {
   std::vector<int> measurements;  // per output
 };
 
+// The measurements of output `output` that a static model learns from: per probe with a finite value
+// of that output, the history row at or before its time (with finite inputs) and the value.
+struct ProbeRows {
+  std::vector<Eigen::Index> rows;  // into history.inputs
+  std::vector<double> values;      // [µm] or [µm/m]
+  std::vector<double> time_s;      // [s] probe times
+};
+ProbeRows probe_rows(const InputHistory& history, const std::vector<ProbeRecord>& probes, Eigen::Index output,
+                     Eigen::Index outputs);
+
+// The inputs that vary over `rows` of history.inputs (the others would only duplicate an intercept).
+std::vector<Eigen::Index> varying_inputs(const InputHistory& history, const std::vector<Eigen::Index>& rows);
+
 // Least squares (QR, relative ridge as in IdentificationOptions::ridge) on the input sample at or
 // before each probe time. Inputs constant over the measurements get b_i = 0. Never throws for data.
 StaticRegressionFit fit_static_regression(const InputHistory& history, const std::vector<std::string>& output_names,

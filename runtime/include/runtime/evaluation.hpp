@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "alc/baselines.hpp"
 #include "alc/error_kind.hpp"
 #include "alc/static_regression.hpp"
 #include "runtime/driver.hpp"
@@ -27,9 +28,19 @@ struct OutputIndicators {
   double P99_uncompensated = 0.0;     // [µm] or [µm/m] P99 of |measured|
 };
 
+// One of the seeds' static models (alc/baselines.hpp), fitted once on the CP measurements.
+struct BaselineReport {
+  std::string name;                         // mlr, lasso, svr, gm, ols
+  std::vector<OutputIndicators> outputs;
+  // lasso and ols: per output, the inputs the model selected; empty for the others.
+  std::vector<std::pair<std::string, std::vector<std::string>>> selected;
+  double mean_p99(ErrorKind kind) const;    // NaN if there is no output of that kind
+};
+
 struct ReplayReport {
   std::vector<OutputIndicators> outputs;    // ALC
   std::vector<OutputIndicators> baseline;   // static MLR fitted on the CP measurements
+  std::vector<BaselineReport> baselines;    // the seeds' models asked for (--baselines), in that order
   double Pd = 0.0;                          // [%] Eq. 7
   int M = 0;                                // probe cycles, all phases
   int ng_phases = 0;
@@ -49,7 +60,9 @@ struct ReplayReport {
 // every residual); none per sample.
 class Evaluation : public Observer {
  public:
-  explicit Evaluation(const scenarios::Scenario& scenario);
+  // `baselines`: the seeds' static models to fit at the end of CP and evaluate on the same rows
+  // (not kept by a snapshot: a resumed run has none).
+  explicit Evaluation(const scenarios::Scenario& scenario, std::vector<BaselineKind> baselines = {});
   void on_cycle(const Cycle& cycle) override;
   void on_sample_done(const Sample& sample, const Controller& controller, std::int64_t next_index) override;
 
@@ -73,10 +86,13 @@ class Evaluation : public Observer {
  private:
   void add(std::size_t row, const Eigen::VectorXd& predicted);
   const scenarios::Scenario& scenario_;
+  std::vector<BaselineKind> baseline_kinds_;
+  std::vector<BaselineModel> baseline_models_;  // fitted at the end of CP, in the order of baseline_kinds_
   bool baseline_fitted_ = false;
   StaticRegression baseline_;
   Eigen::VectorXd predicted_;                 // active before this row's probe
   std::vector<double> time_s_;                // [s] evaluated rows
+  std::vector<std::size_t> rows_;             // scenario rows evaluated
   std::vector<double> measured_, predicted_rows_, baseline_rows_;  // outputs per evaluated row, row-major
 };
 

@@ -40,6 +40,7 @@ struct ReplayOptions {
   nc::MachineConfig machine;               // chain of the offsets (history, NC), NC options, limits
   std::optional<NcOutputSetup> nc;         // NC output; none: no commands
   std::vector<Observer*> observers;        // more observers (after the built-in ones)
+  std::vector<BaselineKind> baselines;     // the seeds' static models to evaluate beside ALC (not with resume)
   std::string software_version;            // stored with a new run
 };
 

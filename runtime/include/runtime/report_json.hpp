@@ -8,14 +8,17 @@
 namespace alc::runtime {
 
 // Per output PV, RMSE, P99, SMAPE, P99_uncompensated, measurements; Pd, M, NG phases, updates,
-// rejected fits, CP end, duration and the baseline's outputs. Non-finite numbers are null.
+// rejected fits, CP end, duration and the baseline's outputs; with baselines asked for (--baselines)
+// also "baselines": {"<name>": {"outputs": ..., "selected": {"<output>": [inputs]}}} ("selected" for
+// lasso and ols), a key that is absent otherwise. Non-finite numbers are null.
 nlohmann::json report_json(const ReplayReport& report);
 
 }  // namespace alc::runtime
 
 namespace alc::runtime {
 
-// The report back from report_json() (what a study file stores); null numbers come back as NaN.
+// The report back from report_json() (what a study file stores); null numbers come back as NaN, the
+// baselines in the order of their names.
 // The wall times (identification_s, total_s) are not stored and come back 0. Throws
 // nlohmann::json::exception on a document of another shape.
 ReplayReport report_from_json(const nlohmann::json& j);
