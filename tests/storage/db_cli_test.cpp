@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "storage/history_writer.hpp"
+#include "storage/schema.hpp"
 #include "storage_test_support.hpp"
 
 using namespace alc::storage;
@@ -47,7 +48,7 @@ TEST_CASE("alc db info, check and export on a sound history", "[storage][cli]") 
   }
   const Outcome info = run_alc("db info " + quoted(file));
   CHECK(info.exit_code == 0);
-  CHECK_THAT(info.output, Catch::Contains("schema version: 3") && Catch::Contains("runs: 1") &&
+  CHECK_THAT(info.output, Catch::Contains("schema version: " + std::to_string(kSchemaVersion)) && Catch::Contains("runs: 1") &&
                               Catch::Contains("time_s 0 .. 3600 (1 h)") && Catch::Contains("input_samples           61"));
   const Outcome check = run_alc("db check " + quoted(file));
   CHECK(check.exit_code == 0);

@@ -509,7 +509,7 @@ TEST_CASE("a version-1 database is migrated to the current schema with its data"
   }
   const HistoryReader reader(file);
   CHECK(reader.schema_version() == kSchemaVersion);
-  CHECK(RawDb(file).scalar("PRAGMA user_version") == 3);
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == kSchemaVersion);
   const auto samples = reader.input_samples(1);
   REQUIRE(samples.size() == 2);
   CHECK(samples[1].values == std::vector<double>{20.5});  // 0x4034800000000000
@@ -522,7 +522,7 @@ TEST_CASE("a version-1 database is migrated to the current schema with its data"
   CHECK(check_history(file).ok());
 }
 
-TEST_CASE("a version-2 database is migrated to version 3: its NC commands kept, not delivered (NULL)", "[storage]") {
+TEST_CASE("a version-2 database is migrated to the current version: its NC commands kept, not delivered (NULL)", "[storage]") {
   ScratchDir dir;
   const auto file = dir / "v2.sqlite";
   // An accepted and a refused command in version-2 form.
@@ -558,10 +558,10 @@ TEST_CASE("a version-2 database is migrated to version 3: its NC commands kept, 
   }
   CHECK(RawDb(file).scalar("PRAGMA user_version") == 2);
   { HistoryWriter writer(file); }  // migrates
-  CHECK(RawDb(file).scalar("PRAGMA user_version") == 3);
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == kSchemaVersion);
   CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM nc_commands WHERE delivered IS NULL AND delivery_message = ''") == 2);
   const HistoryReader reader(file);
-  CHECK(reader.schema_version() == 3);
+  CHECK(reader.schema_version() == kSchemaVersion);
   check_rows(reader.nc_commands(1));
   CHECK(check_history(file).ok());
   {
