@@ -45,6 +45,9 @@ std::vector<std::string> load_case_names(const std::string& selector);
 // A --seed value: decimal digits only, 0 ... 2^64 - 1 (CLI11 would wrap "-1"). Throws UsageError.
 std::uint64_t parse_seed(const std::string& text);
 
+// alc report: a history (or study file) as one self-contained HTML page (cli/cmd_report.cpp).
+void add_report_command(CLI::App& app);
+
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);
 
