@@ -103,8 +103,8 @@ class RunSection {
     h += "<h2>Run " + std::to_string(r.run_id) + ": " + escape_xml(r.source) + " <small>(" +
          storage::to_string(r.status) + ")</small></h2>\n";
     h += "<p class=\"meta\">started " + utc_text(r.started_unix_s) +
-         (r.ended_unix_s ? ", ended " + utc_text(*r.ended_unix_s) : std::string(", not ended")) + ", " +
-         escape_xml(r.software_version) + "; " + std::to_string(d_.samples.size()) + " input samples, " +
+         (r.ended_unix_s ? ", ended " + utc_text(*r.ended_unix_s) : std::string(", not ended")) +
+         (r.software_version.empty() ? "" : " by " + escape_xml(r.software_version)) + "; " + std::to_string(d_.samples.size()) + " input samples, " +
          std::to_string(d_.probes.size()) + " probes, " + std::to_string(d_.models.size()) +
          " model parameter sets. Time axes: hours from the run's first sample (time_s " + fmt(t0_s_, 0) +
          " s).</p>\n";
