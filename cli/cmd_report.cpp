@@ -15,14 +15,13 @@ namespace {
 
 struct ReportArgs {
   std::string file;
-  std::int64_t run = 0;
-  bool run_given = false;
+  std::vector<std::int64_t> runs;
   std::string out = "report.html";
 };
 
 void run_report(const ReportArgs& a) {
   report::ReportOptions o;
-  if (a.run_given) o.run = a.run;
+  o.runs = a.runs;
   o.software_version = std::string("alc ") + ALC_VERSION;
   const auto start = std::chrono::steady_clock::now();
   report::ReportStats stats;
@@ -56,10 +55,9 @@ void add_report_command(CLI::App& app) {
                 "and Pd, the axis offsets (refused commands marked), the indicators and the parameters; for a "
                 "study file the Pareto fronts. Opens offline in any browser (see docs/report.md).");
   cmd->add_option("file", args->file, "History database (alc replay --db, alc study --db)")->required();
-  cmd->add_option_function<std::int64_t>(
-         "--run", [args](std::int64_t r) { args->run = r; args->run_given = true; },
-         "Only this run (default: every run of the file)")
-      ->type_name("N");
+  cmd->add_option("--run", args->runs, "Only this run; repeat for several (default: every run of the file)")
+      ->type_name("N")
+      ->allow_extra_args(false);
   cmd->add_option("--out", args->out, "HTML file to write")->capture_default_str();
   cmd->callback([args] { run_report(*args); });
 }

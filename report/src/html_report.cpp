@@ -451,19 +451,20 @@ const char* const kScript = R"(<script>
 std::string html_report(const std::filesystem::path& file, const ReportOptions& options, ReportStats* stats_out) {
   const storage::HistoryReader reader(file);
   const auto runs = reader.runs();
-  std::vector<storage::RunId> chosen;
-  if (options.run) {
-    if (std::none_of(runs.begin(), runs.end(), [&](const auto& r) { return r.run_id == *options.run; })) {
+  std::vector<storage::RunId> chosen;  // options.runs, each once
+  for (const storage::RunId id : options.runs)
+    if (std::find(chosen.begin(), chosen.end(), id) == chosen.end()) chosen.push_back(id);
+  for (const storage::RunId id : chosen)
+    if (std::none_of(runs.begin(), runs.end(), [&](const auto& r) { return r.run_id == id; })) {
       std::string list;
       for (const auto& r : runs) list += (list.empty() ? "" : ", ") + std::to_string(r.run_id);
-      throw UnknownRun("history database '" + file.string() + "' has no run " + std::to_string(*options.run) +
+      throw UnknownRun("history database '" + file.string() + "' has no run " + std::to_string(id) +
                        (runs.empty() ? " (it holds no runs)" : " (its runs: " + list + ")"));
     }
-    chosen.push_back(*options.run);
-  } else {
+  if (chosen.empty())
     for (const auto& r : runs) chosen.push_back(r.run_id);
-  }
-  const auto study_header = options.run ? std::nullopt : storage::StudyStore::header_of(file);
+  const auto study_header =
+      options.runs.empty() ? storage::StudyStore::header_of(file) : std::optional<storage::StudyHeader>();
 
   ReportStats stats;
   Page page(stats);
@@ -472,7 +473,7 @@ std::string html_report(const std::filesystem::path& file, const ReportOptions& 
        escape_xml(file.filename().string()) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
   h += "<header><h1>ALC report</h1><p class=\"meta\">" + escape_xml(file.string()) + " (schema version " +
        std::to_string(reader.schema_version()) + "), " + std::to_string(runs.size()) + " run(s) in the file" +
-       (options.run ? ", run " + std::to_string(*options.run) + " shown" : std::string()) +
+       (options.runs.empty() ? std::string() : ", " + std::to_string(chosen.size()) + " shown") +
        (options.software_version.empty() ? "" : "; written by " + escape_xml(options.software_version)) +
        ".</p>\n<nav>";
   for (auto id : chosen) h += "<a href=\"#run-" + std::to_string(id) + "\">run " + std::to_string(id) + "</a>";

@@ -111,7 +111,7 @@ TEST_CASE("report refuses a file that is not a history and an unknown run - nami
   CHECK_THROWS_AS(html_report(text, {}), storage::StorageError);
   const auto h = test::short_history(dir);
   ReportOptions o;
-  o.run = 42;
+  o.runs = {1, 42};
   try {
     (void)html_report(h.db, o);
     FAIL("no error for run 42");

@@ -4,9 +4,9 @@
 // page only counts what the charts drew (for tests) and reports the render time.
 #include <cstddef>
 #include <filesystem>
-#include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "storage/records.hpp"
 
@@ -19,7 +19,7 @@ class UnknownRun : public std::invalid_argument {
 };
 
 struct ReportOptions {
-  std::optional<storage::RunId> run;   // only this run; default: every run of the file
+  std::vector<storage::RunId> runs;    // only these runs, in this order; empty: every run of the file
   std::string software_version;        // "alc 0.1.0", shown in the page's header
 };
 
@@ -33,7 +33,7 @@ struct ReportStats {
 };
 
 // The page. Throws storage::StorageError for a file that is not an ALC database (naming the file)
-// and UnknownRun for options.run not in the file.
+// and UnknownRun for a run of options.runs not in the file.
 std::string html_report(const std::filesystem::path& file, const ReportOptions& options, ReportStats* stats = nullptr);
 
 }  // namespace alc::report
