@@ -153,3 +153,24 @@ TEST_CASE("alc report: writes the page - not a history - a missing file or an un
   r = alc_test::run_alc("report \"" + h.db.string() + "\" --run x", "report_cli");
   CHECK(r.exit_code == 2);
 }
+
+TEST_CASE("report of a study file: the Pareto front of each case over every parameter set", "[report][html][cli]") {
+  const test::Scratch scratch("study");
+  const auto& dir = scratch.dir;
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
+  const auto db = dir / "study.sqlite";
+  auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                 db.string() + "\"",
+                             "report_study");
+  REQUIRE(r.exit_code == 0);
+  ReportStats stats;
+  const std::string html = html_report(db, {}, &stats);
+  CHECK(stats.study);
+  CHECK(stats.runs == 0);
+  CHECK(stats.charts == 1);
+  CHECK(html.find("<section class=\"study\" id=\"study\">") != std::string::npos);
+  CHECK(html.find(">mean linear P99 [µm]</text>") != std::string::npos);
+  CHECK(html.find(">Pd [%]</text>") != std::string::npos);
+  CHECK(html.find("data-name=\"parameter sets\" data-style=\"points\" data-points=\"4\"") != std::string::npos);
+  CHECK(html.find("data-name=\"Pareto front\"") != std::string::npos);
+}
