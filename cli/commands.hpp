@@ -48,6 +48,8 @@ std::uint64_t parse_seed(const std::string& text);
 
 // alc supervise: the supervisor on an MQTT broker (cli/cmd_supervise.cpp).
 void add_supervise_command(CLI::App& app);
+// alc report: a history (or study file) as one self-contained HTML page (cli/cmd_report.cpp).
+void add_report_command(CLI::App& app);
 
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);

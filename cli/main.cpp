@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   alc::cli::add_db_command(app);
   alc::cli::add_nc_command(app);
   alc::cli::add_supervise_command(app);
+  alc::cli::add_report_command(app);
 
   try {
     app.parse(argc, argv);

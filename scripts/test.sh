@@ -9,6 +9,8 @@ ensure_packages mosquitto
 # SLURM and munge for the study's cluster test (tests/study/slurm_study_test.sh starts its own
 # daemons; the packages' services are not used).
 ensure_packages slurmctld slurmd slurm-client munge
+# Chromium for the report's browser tests (tests/report/browser_test.cpp: headless, on a local file).
+ensure_packages chromium
 status=0
 build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release
 ctest --no-tests=error --test-dir "$ALC_ROOT/build/test-release" -j "$ALC_JOBS" --output-on-failure || status=1

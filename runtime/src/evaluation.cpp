@@ -10,8 +10,21 @@ namespace alc::runtime {
 
 namespace {
 
-OutputIndicators evaluate(const std::string& name, const std::vector<double>& measured,
-                          const std::vector<double>& predicted) {
+double mean_of(const std::vector<OutputIndicators>& outs, ErrorKind kind, double OutputIndicators::*field) {
+  double sum = 0.0;
+  int n = 0;
+  for (const auto& o : outs)
+    if (o.kind == kind && !std::isnan(o.*field)) {
+      sum += o.*field;
+      ++n;
+    }
+  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+OutputIndicators evaluate_output(const std::string& name, const std::vector<double>& measured,
+                                 const std::vector<double>& predicted) {
   OutputIndicators r;
   r.name = name;
   r.kind = error_kind(name);
@@ -28,19 +41,6 @@ OutputIndicators evaluate(const std::string& name, const std::vector<double>& me
   r.P99_uncompensated = p99_abs_residual(measured, zero);
   return r;
 }
-
-double mean_of(const std::vector<OutputIndicators>& outs, ErrorKind kind, double OutputIndicators::*field) {
-  double sum = 0.0;
-  int n = 0;
-  for (const auto& o : outs)
-    if (o.kind == kind && !std::isnan(o.*field)) {
-      sum += o.*field;
-      ++n;
-    }
-  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
-}
-
-}  // namespace
 
 double ReplayReport::mean_p99(ErrorKind kind, bool of_baseline) const {
   return mean_of(of_baseline ? baseline : outputs, kind, &OutputIndicators::P99);
@@ -128,7 +128,7 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
         measured.push_back(m);
         predicted.push_back(prediction(i, k));
       }
-      outs.push_back(evaluate(scenario_.output_names[k], measured, predicted));
+      outs.push_back(evaluate_output(scenario_.output_names[k], measured, predicted));
     }
     return outs;
   };

@@ -55,6 +55,11 @@ struct ReplayReport {
   double mean_p99_uncompensated(ErrorKind kind) const;
 };
 
+// The indicators of one output from its measured errors and the predictions at the same times
+// (Eq. 1-6; P99_uncompensated against zero). NaN everywhere when there is no measurement.
+OutputIndicators evaluate_output(const std::string& name, const std::vector<double>& measured,
+                                 const std::vector<double>& predicted);
+
 // Collects, per recorded measurement after CP, the measured errors, the ALC prediction and the
 // baseline's. Memory: 3 doubles per output per recorded measurement after CP (the indicators need
 // every residual); none per sample.

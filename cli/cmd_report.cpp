@@ -1,0 +1,65 @@
+// alc report: a history database (or a study file) as one self-contained HTML page (report/,
+// docs/report.md).
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "common/atomic_file.hpp"
+#include "report/html_report.hpp"
+#include "storage/storage_error.hpp"
+
+namespace alc::cli {
+
+namespace {
+
+struct ReportArgs {
+  std::string file;
+  std::vector<std::int64_t> runs;
+  std::string out = "report.html";
+};
+
+void run_report(const ReportArgs& a) {
+  report::ReportOptions o;
+  o.runs = a.runs;
+  o.software_version = std::string("alc ") + ALC_VERSION;
+  const auto start = std::chrono::steady_clock::now();
+  report::ReportStats stats;
+  std::string html;
+  try {
+    html = report::html_report(a.file, o, &stats);
+  } catch (const report::UnknownRun& e) {
+    throw UsageError(std::string("--run: ") + e.what());
+  } catch (const storage::StorageError& e) {
+    // The file named is not a history this alc can read: the user's input is wrong.
+    if (e.kind == storage::StorageErrorKind::NotADatabase || e.kind == storage::StorageErrorKind::ForeignDatabase ||
+        e.kind == storage::StorageErrorKind::NotFound || e.kind == storage::StorageErrorKind::NewerSchema)
+      throw UsageError(e.what());
+    throw;
+  }
+  io::write_file_atomically(a.out, html);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::cout << "report: " << std::filesystem::absolute(a.out).string() << " (" << stats.runs << " run(s)"
+            << (stats.study ? " and the study" : "") << ", " << stats.charts << " charts, " << stats.series
+            << " series, " << stats.points << " points drawn, " << html.size() / 1024 << " KiB, written in "
+            << static_cast<int>(seconds * 1000.0) << " ms)\n";
+}
+
+}  // namespace
+
+void add_report_command(CLI::App& app) {
+  auto args = std::make_shared<ReportArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "report", "Write one self-contained HTML page of a history database: per run the errors (measured, "
+                "predicted, residual with the ACL band) with phases and model updates, the inputs, probe intervals "
+                "and Pd, the axis offsets (refused commands marked), the indicators and the parameters; for a "
+                "study file the Pareto fronts. Opens offline in any browser (see docs/report.md).");
+  cmd->add_option("file", args->file, "History database (alc replay --db, alc study --db)")->required();
+  cmd->add_option("--run", args->runs, "Only this run; repeat for several (default: every run of the file)")
+      ->type_name("N")
+      ->allow_extra_args(false);
+  cmd->add_option("--out", args->out, "HTML file to write")->capture_default_str();
+  cmd->callback([args] { run_report(*args); });
+}
+
+}  // namespace alc::cli

@@ -1,0 +1,499 @@
+#include "report/html_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "alc/error_kind.hpp"
+#include "probing/schedule.hpp"
+#include "report/run_data.hpp"
+#include "report/svg_chart.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/study_store.hpp"
+#include "study/analysis.hpp"
+#include "study/results.hpp"
+
+namespace alc::report {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+const char* const kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                                "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+constexpr std::size_t kPaletteSize = sizeof kPalette / sizeof kPalette[0];
+
+std::string fmt(double v, int precision = 2) {
+  if (std::isnan(v)) return "-";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", precision, v);
+  return buf;
+}
+
+std::string utc_text(double unix_s) {
+  const auto t = static_cast<std::time_t>(unix_s);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M UTC", &tm);
+  return text;
+}
+
+// Unit of an input channel from its name: T… temperatures, n_… speeds, anything else a state.
+std::string input_unit(const std::string& name) {
+  if (!name.empty() && name[0] == 'T') return "°C";
+  if (name.rfind("n_", 0) == 0) return "rpm";
+  return "-";
+}
+
+// Unit of an offset channel from its name ("X_um", "C_urad").
+std::string offset_unit(const std::string& name) {
+  const auto u = name.rfind('_');
+  const std::string s = u == std::string::npos ? "" : name.substr(u + 1);
+  if (s == "um") return "µm";
+  if (s == "urad") return "µrad";
+  return s.empty() ? "-" : s;
+}
+
+class Page {
+ public:
+  explicit Page(ReportStats& stats) : stats_(stats) {}
+  void chart(const Chart& c) {
+    html += render_svg(c);
+    ++stats_.charts;
+    stats_.series += c.series.size();
+    for (const auto& s : c.series) stats_.points += drawn_points(c, s);
+  }
+  std::string html;
+
+ private:
+  ReportStats& stats_;
+};
+
+// The per-run part of the page.
+class RunSection {
+ public:
+  RunSection(const RunData& d, Page& page) : d_(d), page_(page) {
+    t0_s_ = d.samples.empty() ? 0.0 : d.samples.front().time_s;
+    double last = d.samples.empty() ? 0.0 : d.samples.back().time_s;
+    for (const auto& p : d.probes) last = std::max(last, p.time_s);
+    x_range_ = {0.0, std::max(hours(last), 1e-3)};
+    // Phase spans: from the start to the first change in its from-phase (replay records no change at
+    // the start), then from each change to the next, the last to the end of the run.
+    if (!d.phases.empty() && !d.phases.front().from_phase.empty())
+      spans_.push_back({0.0, hours(d.phases.front().time_s), d.phases.front().from_phase});
+    for (std::size_t i = 0; i < d.phases.size(); ++i) {
+      const double end = i + 1 < d.phases.size() ? hours(d.phases[i + 1].time_s) : x_range_.second;
+      spans_.push_back({hours(d.phases[i].time_s), end, d.phases[i].to_phase});
+    }
+    for (const auto& m : d.models)
+      updates_.push_back({hours(m.time_s), m.adopted ? "update" : "rejected",
+                          (m.adopted ? "model update at " : "rejected fit at ") + fmt(hours(m.time_s)) + " h: " +
+                              m.reason});
+  }
+
+  void write() {
+    const auto& r = d_.run;
+    std::string& h = page_.html;
+    const std::string id = "run-" + std::to_string(r.run_id);
+    h += "<section class=\"run\" id=\"" + id + "\" data-run=\"" + std::to_string(r.run_id) + "\">\n";
+    h += "<h2>Run " + std::to_string(r.run_id) + ": " + escape_xml(r.source) + " <small>(" +
+         storage::to_string(r.status) + ")</small></h2>\n";
+    h += "<p class=\"meta\">started " + utc_text(r.started_unix_s) +
+         (r.ended_unix_s ? ", ended " + utc_text(*r.ended_unix_s) : std::string(", not ended")) +
+         (r.software_version.empty() ? "" : " by " + escape_xml(r.software_version)) + "; " + std::to_string(d_.samples.size()) + " input samples, " +
+         std::to_string(d_.probes.size()) + " probes, " + std::to_string(d_.models.size()) +
+         " model parameter sets. Time axes: hours from the run's first sample (time_s " + fmt(t0_s_, 0) +
+         " s).</p>\n";
+    indicators();
+    errors();
+    inputs();
+    probing();
+    offsets();
+    models();
+    parameters();
+    h += "</section>\n";
+  }
+
+ private:
+  double hours(double time_s) const { return (time_s - t0_s_) / 3600.0; }
+
+  Chart base(const std::string& id, const std::string& title, const std::string& y_label) const {
+    Chart c;
+    c.id = "run" + std::to_string(d_.run.run_id) + "-" + id;
+    c.title = title;
+    c.x_label = "time [h]";
+    c.y_label = y_label;
+    c.x_range = x_range_;
+    return c;
+  }
+
+  void indicators() {
+    const runtime::ReplayReport rep = history_indicators(d_);
+    std::string& h = page_.html;
+    h += "<h3>Indicators</h3>\n<p>duration " + fmt(rep.duration_s / 3600.0, 1) + " h, CP ended at " +
+         (std::isfinite(rep.cp_end_s) ? fmt(hours(rep.cp_end_s), 2) + " h" : std::string("never")) + ", M = " +
+         std::to_string(rep.M) + " probe cycles, Pd = " + fmt(rep.Pd) + " %, NG phases " +
+         std::to_string(rep.ng_phases) + ", model updates " + std::to_string(rep.updates) +
+         (rep.rejected_fits ? ", rejected fits " + std::to_string(rep.rejected_fits) : std::string()) + "</p>\n";
+    h += "<table class=\"indicators\"><thead><tr><th>output</th><th>unit</th><th>PV [%]</th><th>RMSE</th>"
+         "<th>P99</th><th>SMAPE [%]</th><th>P99 uncomp</th><th>P99 baseline</th><th>probes evaluated</th></tr>"
+         "</thead><tbody>\n";
+    for (std::size_t i = 0; i < rep.outputs.size(); ++i) {
+      const auto& o = rep.outputs[i];
+      h += "<tr><td>" + escape_xml(o.name) + "</td><td>" + std::string(unit_of(o.kind)) + "</td><td>" +
+           fmt(o.PV, 1) + "</td><td>" + fmt(o.RMSE) + "</td><td>" + fmt(o.P99) + "</td><td>" + fmt(o.SMAPE, 1) +
+           "</td><td>" + fmt(o.P99_uncompensated) + "</td><td>" + fmt(rep.baseline[i].P99) + "</td><td>" +
+           std::to_string(o.measurements) + "</td></tr>\n";
+    }
+    h += "</tbody></table>\n<p>mean P99 linear: ALC " + fmt(rep.mean_p99(ErrorKind::Linear)) + " µm, baseline " +
+         fmt(rep.mean_p99(ErrorKind::Linear, true)) + " µm, uncompensated " +
+         fmt(rep.mean_p99_uncompensated(ErrorKind::Linear)) + " µm; mean P99 angular: ALC " +
+         fmt(rep.mean_p99(ErrorKind::Angular)) + " µm/m, baseline " + fmt(rep.mean_p99(ErrorKind::Angular, true)) +
+         " µm/m, uncompensated " + fmt(rep.mean_p99_uncompensated(ErrorKind::Angular)) + " µm/m.</p>\n"
+         "<p class=\"note\">Computed from this history: every probe from the end of CP on against the stored "
+         "prediction in force at its time (a replay's own table also counts the scenario's measurements that "
+         "were not probed).</p>\n";
+  }
+
+  void errors() {
+    page_.html += "<h3>Errors</h3>\n<p class=\"note\">Shaded: CP (blue), Post-CP (white), NG (red). Vertical lines: "
+                  "model updates (green), rejected fits (grey, dashed). Error = probe measurement + compensation in "
+                  "force.</p>\n";
+    const Acl acl = acl_of(d_.run);
+    const auto& names = d_.run.output_names;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      const ErrorKind kind = error_kind(names[k]);
+      const std::string unit(unit_of(kind));
+      Chart c = base(names[k], names[k] + ": measured and predicted", names[k] + " [" + unit + "]");
+      c.spans = spans_;
+      c.markers = updates_;
+      Series pred{"predicted", "#1f77b4", Series::Style::Line, {}, {}};
+      for (const auto& p : d_.predictions) {
+        pred.x.push_back(hours(p.time_s));
+        pred.y.push_back(k < p.predicted.size() ? p.predicted[k] : kNaN);
+      }
+      Series meas{"measured (probes)", "#d62728", Series::Style::Points, {}, {}};
+      Series res{"residual (measured - predicted)", "#9467bd", Series::Style::Points, {}, {}};
+      for (const auto& p : d_.probes) {
+        const double e = probe_error(p, k);
+        if (std::isnan(e)) continue;
+        meas.x.push_back(hours(p.time_s));
+        meas.y.push_back(e);
+        const storage::PredictionRecord* at = prediction_at(d_, p.time_s);
+        res.x.push_back(hours(p.time_s));
+        res.y.push_back(at && k < at->predicted.size() ? e - at->predicted[k] : e);
+      }
+      c.series = {std::move(pred), std::move(meas)};
+      page_.chart(c);
+      Chart r = base(names[k] + "-residual", names[k] + ": residual at the probes and the ACL",
+                     "residual [" + unit + "]");
+      r.height = 170;
+      r.spans = spans_;
+      r.markers = updates_;
+      const double limit = kind == ErrorKind::Linear ? acl.linear_um : acl.angular_um_per_m;
+      if (std::isfinite(limit)) r.hbands.push_back({-limit, limit, "ACL ±" + fmt(limit, 1) + " " + unit});
+      r.series = {std::move(res)};
+      page_.chart(r);
+    }
+  }
+
+  void inputs() {
+    page_.html += "<h3>Inputs</h3>\n";
+    charts_by_unit(d_.run.input_names, input_unit, d_.samples,
+                   [](const storage::InputSampleRecord& r) -> const std::vector<double>& { return r.values; },
+                   [&](std::size_t n, const std::string& unit) {
+                     const std::string what = unit == "°C" ? "temperatures" : unit == "rpm" ? "speeds" : "machine states";
+                     Chart c = base("inputs-" + std::to_string(n), "Inputs: " + what, what + " [" + unit + "]");
+                     c.spans = spans_;
+                     return c;
+                   });
+  }
+
+  // One chart per unit of the channels `names` (units in order of first appearance), one line per
+  // channel: values_of(record)[channel] over the records.
+  template <class Record, class Values, class Make>
+  void charts_by_unit(const std::vector<std::string>& names, std::string (*unit_of_name)(const std::string&),
+                      const std::vector<Record>& records, Values values_of, Make make_chart) {
+    std::vector<std::string> units;
+    for (const auto& n : names)
+      if (std::find(units.begin(), units.end(), unit_of_name(n)) == units.end()) units.push_back(unit_of_name(n));
+    for (std::size_t u = 0; u < units.size(); ++u) {
+      Chart c = make_chart(u, units[u]);
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (unit_of_name(names[i]) != units[u]) continue;
+        Series s{names[i], kPalette[c.series.size() % kPaletteSize], Series::Style::Line, {}, {}};
+        for (const auto& r : records) {
+          const std::vector<double>& v = values_of(r);
+          s.x.push_back(hours(r.time_s));
+          s.y.push_back(i < v.size() ? v[i] : kNaN);
+        }
+        c.series.push_back(std::move(s));
+      }
+      page_.chart(c);
+    }
+  }
+
+  void probing() {
+    page_.html += "<h3>Probing</h3>\n";
+    Chart c = base("interval", "Probe interval", "interval [min]");
+    c.spans = spans_;
+    Series s{"probe interval", "#2ca02c", Series::Style::Step, {}, {}};
+    for (const auto& i : d_.intervals) {
+      s.x.push_back(hours(i.time_s));
+      s.y.push_back(std::isfinite(i.interval_s) ? i.interval_s / 60.0 : kNaN);  // inf: no more probing
+    }
+    c.series = {std::move(s)};
+    page_.chart(c);
+    // Pd so far (Eq. 7) after each probe and at the end.
+    Chart p = base("pd", "Productivity Pd so far (Eq. 7)", "Pd [%]");
+    p.spans = spans_;
+    Series pd{"Pd", "#8c564b", Series::Style::Line, {}, {}};
+    int m = 0;
+    for (const auto& pr : d_.probes) {
+      ++m;
+      const double span = pr.time_s - t0_s_;
+      if (span <= 0) continue;
+      pd.x.push_back(hours(pr.time_s));
+      pd.y.push_back(probing::productivity_percent(m, span));
+    }
+    if (!d_.samples.empty() && d_.samples.back().time_s > t0_s_) {
+      pd.x.push_back(hours(d_.samples.back().time_s));
+      pd.y.push_back(probing::productivity_percent(m, d_.samples.back().time_s - t0_s_));
+    }
+    p.series = {std::move(pd)};
+    page_.chart(p);
+  }
+
+  void offsets() {
+    const auto& names = d_.run.offset_names;
+    std::string& h = page_.html;
+    h += "<h3>Axis offsets</h3>\n";
+    std::size_t sent = 0, refused = 0;
+    std::vector<Marker> marks;
+    for (const auto& c : d_.nc_commands) {
+      if (c.kind != "offsets") continue;
+      (c.accepted ? sent : refused)++;
+      marks.push_back({hours(c.time_s), c.accepted ? "sent" : "refused",
+                       (c.accepted ? "sent at " : "refused at ") + fmt(hours(c.time_s)) + " h" +
+                           (c.message.empty() ? "" : ": " + c.message)});
+    }
+    if (names.empty()) {
+      h += "<p>This run has no offset channels (no output is a C-axis location error).</p>\n";
+      return;
+    }
+    h += "<p>Lines: the offsets that cancel each prediction (targets). Ticks at the bottom: offset commands the "
+         "safety gate passed to the NC (" + std::to_string(sent) + "); red lines: refused commands (" +
+         std::to_string(refused) + ")" +
+         (d_.nc_commands.empty() ? "; this run recorded no NC commands (alc replay without --nc-out)" : "") + ".</p>\n";
+    charts_by_unit(names, offset_unit, d_.predictions,
+                   [](const storage::PredictionRecord& r) -> const std::vector<double>& { return r.offsets; },
+                   [&](std::size_t n, const std::string& unit) {
+                     Chart c = base("offsets-" + std::to_string(n), "Axis offsets [" + unit + "]", "offset [" + unit + "]");
+                     c.markers = marks;
+                     return c;
+                   });
+    if (refused) {
+      h += "<table class=\"refused\"><thead><tr><th>time [h]</th><th>refused offset command: the gate's reason</th>"
+           "</tr></thead><tbody>\n";
+      for (const auto& c : d_.nc_commands)
+        if (c.kind == "offsets" && !c.accepted)
+          h += "<tr><td>" + fmt(hours(c.time_s)) + "</td><td>" + escape_xml(c.message) + "</td></tr>\n";
+      h += "</tbody></table>\n";
+    }
+  }
+
+  void models() {
+    std::string& h = page_.html;
+    h += "<h3>Model parameter sets</h3>\n<details><summary>" + std::to_string(d_.models.size()) +
+         " identifications</summary><table><thead><tr><th>time [h]</th><th>adopted</th><th>order</th><th>inputs</th>"
+         "<th>reason</th></tr></thead><tbody>\n";
+    for (const auto& m : d_.models) {
+      std::string inputs;
+      for (const auto& i : m.inputs_chosen) inputs += (inputs.empty() ? "" : ", ") + i;
+      h += "<tr><td>" + fmt(hours(m.time_s)) + "</td><td>" + (m.adopted ? "yes" : "no") + "</td><td>" +
+           std::to_string(m.order) + "</td><td>" + escape_xml(inputs) + "</td><td>" + escape_xml(m.reason) +
+           "</td></tr>\n";
+    }
+    h += "</tbody></table></details>\n";
+  }
+
+  void parameters() {
+    std::string& h = page_.html;
+    h += "<h3>Parameters</h3>\n<table class=\"parameters\"><tbody>\n";
+    const auto j = nlohmann::json::parse(d_.run.config_json, nullptr, false);
+    if (j.is_discarded()) {
+      h += "<tr><td>config_json</td><td>" + escape_xml(d_.run.config_json) + "</td></tr>\n";
+    } else {
+      // Flattened: "parameters.identification.method" = value.
+      const nlohmann::json flat = j.flatten();
+      for (const auto& [key, value] : flat.items()) {
+        std::string k = key.size() > 1 ? key.substr(1) : key;
+        std::replace(k.begin(), k.end(), '/', '.');
+        h += "<tr><td>" + escape_xml(k) + "</td><td>" +
+             escape_xml(value.is_string() ? value.get<std::string>() : value.dump()) + "</td></tr>\n";
+      }
+    }
+    h += "</tbody></table>\n";
+  }
+
+  const RunData& d_;
+  Page& page_;
+  double t0_s_ = 0.0;
+  std::pair<double, double> x_range_;
+  std::vector<Span> spans_;
+  std::vector<Marker> updates_;
+};
+
+// The study part: per case the Pareto front of mean linear P99 against Pd over every set.
+void study_section(const std::filesystem::path& file, const storage::StudyHeader& header, Page& page) {
+  const study::StudyInfo info = study::StudyInfo::of(header);
+  const auto rows = storage::StudyStore::rows_of(file);
+  const study::Analysis a = study::analyse(info, rows);
+  std::string& h = page.html;
+  h += "<section class=\"study\" id=\"study\">\n<h2>Study: " + std::to_string(info.sets.size()) + " parameter sets x " +
+       std::to_string(info.cases.size()) + " cases</h2>\n<p>" + std::to_string(a.rows) + " of " +
+       std::to_string(a.expected) + " rows present (shard " + escape_xml(info.shard) + ", " +
+       escape_xml(info.software_version) + "). Each point is a parameter set; the line joins the sets no other set "
+       "beats on both mean linear P99 and Pd (Pareto front); dashed: the P99 limit of Eq. 8.</p>\n";
+  for (std::size_t ci = 0; ci < a.cases.size(); ++ci) {
+    const auto& ca = a.cases[ci];
+    Chart c;
+    c.id = "study-pareto-" + std::to_string(ci);
+    c.title = "Case " + ca.name + ": P99 against Pd (" + std::to_string(ca.rows) + " sets, " +
+              std::to_string(ca.failed) + " failed)";
+    c.x_label = "Pd [%]";
+    c.y_label = "mean linear P99 [µm]";
+    c.height = 300;
+    Series all{"parameter sets", "#9e9e9e", Series::Style::Points, {}, {}};
+    std::vector<std::pair<double, double>> points;
+    for (const auto& r : rows)
+      if (r.ok && static_cast<std::size_t>(r.case_index) == ci && r.pd && r.p99_linear)
+        points.emplace_back(*r.pd, *r.p99_linear);
+    std::sort(points.begin(), points.end());  // x non-decreasing for the display downsampling
+    for (const auto& [x, y] : points) {
+      all.x.push_back(x);
+      all.y.push_back(y);
+    }
+    Series front{"Pareto front", "#d62728", Series::Style::Line, {}, {}};
+    std::vector<study::Point> pareto = ca.pareto;
+    std::sort(pareto.begin(), pareto.end(), [](const auto& l, const auto& r) { return l.pd < r.pd; });
+    for (const auto& p : pareto) {
+      front.x.push_back(p.pd);
+      front.y.push_back(p.p99_linear);
+    }
+    c.series = {std::move(all), std::move(front)};
+    if (!points.empty()) {
+      Series limit{"limit " + fmt(a.limit_um, 1) + " µm", "#555555", Series::Style::Line,
+                   {points.front().first, points.back().first}, {a.limit_um, a.limit_um}, true};
+      c.series.push_back(std::move(limit));
+    }
+    page.chart(c);
+    if (ca.optimum)
+      h += "<p>Eq. 8 optimum of case " + escape_xml(ca.name) + ": set " + std::to_string(ca.optimum->set) +
+           ", P99 " + fmt(ca.optimum->p99_linear) + " µm, Pd " + fmt(ca.optimum->pd) + " %.</p>\n";
+  }
+  h += "<p class=\"note\">Heat maps of P99 and Pd over the grid: not drawn by this version.</p>\n</section>\n";
+}
+
+const char* const kStyle = R"(
+body{font:14px/1.4 system-ui,sans-serif;margin:0 24px 40px;color:#222;max-width:1000px}
+h1{margin:16px 0 4px}h2{border-top:2px solid #444;padding-top:12px;margin-top:32px}h3{margin:24px 0 6px}
+nav a{margin-right:12px}.meta,.note{color:#555;font-size:13px}
+table{border-collapse:collapse;margin:6px 0;font-size:13px}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
+td:first-child,th:first-child,.parameters td{text-align:left}
+figure.chart{margin:8px 0 14px}svg.alc-chart{display:block;background:#fff}
+svg text{font:11px system-ui,sans-serif;fill:#333}svg .chart-title{font-size:13px;font-weight:600}
+svg .axis-label{font-size:12px}svg .grid{stroke:#e4e4e4;stroke-width:1}svg .frame{fill:none;stroke:#888}
+svg .span-CP{fill:#dbe9f7}svg .span-NG{fill:#f9d6d5}svg .span-Post-CP{fill:none}
+svg .hband{fill:#ffe8c2;opacity:.8}
+svg .marker{stroke-width:1}svg .marker-update{stroke:#2ca02c;opacity:.45}svg .marker-rejected{stroke:#999;stroke-dasharray:3 3}
+svg .marker-refused{stroke:#d62728;stroke-width:2}svg .marker-sent{stroke:#2ca02c;opacity:.7}
+svg path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
+svg path.series-points{stroke-width:4.5;stroke-linecap:round}svg path.dashed{stroke-dasharray:6 4}
+.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
+.legend i{display:inline-block;width:14px;height:4px;margin-right:5px;vertical-align:middle}
+.legend .key-points i{width:7px;height:7px;border-radius:50%}.legend i.hband-key{background:#ffe8c2;height:10px}
+#alc-dom-check{display:none}
+)";
+
+// Counts what the charts drew into #alc-dom-check (JSON): per chart the series and their points,
+// read back from the DOM (path commands), any script error, and the time to the first frame.
+const char* const kScript = R"(<script>
+(function () {
+  var errors = [];
+  window.addEventListener('error', function (e) { errors.push(String(e.message)); });
+  function count() {
+    var charts = [];
+    document.querySelectorAll('svg.alc-chart').forEach(function (svg) {
+      var series = [];
+      svg.querySelectorAll('path.series').forEach(function (p) {
+        var d = p.getAttribute('d') || '';
+        series.push({name: p.getAttribute('data-name'), points: (d.match(/[MLV]/g) || []).length});
+      });
+      charts.push({id: svg.parentNode.id, series: series});
+    });
+    var out = document.getElementById('alc-dom-check');
+    out.textContent = JSON.stringify({charts: charts, errors: errors,
+                                      render_ms: Math.round(performance.now())});
+    out.setAttribute('data-done', '1');
+  }
+  window.addEventListener('load', function () { requestAnimationFrame(function () { setTimeout(count, 0); }); });
+})();
+</script>
+)";
+
+}  // namespace
+
+std::string html_report(const std::filesystem::path& file, const ReportOptions& options, ReportStats* stats_out) {
+  const storage::HistoryReader reader(file);
+  const auto runs = reader.runs();
+  std::vector<storage::RunId> chosen;  // options.runs, each once
+  for (const storage::RunId id : options.runs)
+    if (std::find(chosen.begin(), chosen.end(), id) == chosen.end()) chosen.push_back(id);
+  for (const storage::RunId id : chosen)
+    if (std::none_of(runs.begin(), runs.end(), [&](const auto& r) { return r.run_id == id; })) {
+      std::string list;
+      for (const auto& r : runs) list += (list.empty() ? "" : ", ") + std::to_string(r.run_id);
+      throw UnknownRun("history database '" + file.string() + "' has no run " + std::to_string(id) +
+                       (runs.empty() ? " (it holds no runs)" : " (its runs: " + list + ")"));
+    }
+  if (chosen.empty())
+    for (const auto& r : runs) chosen.push_back(r.run_id);
+  const auto study_header =
+      options.runs.empty() ? storage::StudyStore::header_of(file) : std::optional<storage::StudyHeader>();
+
+  ReportStats stats;
+  Page page(stats);
+  std::string& h = page.html;
+  h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>ALC report: " +
+       escape_xml(file.filename().string()) + "</title>\n<style>" + kStyle + "</style>\n</head>\n<body>\n";
+  h += "<header><h1>ALC report</h1><p class=\"meta\">" + escape_xml(file.string()) + " (schema version " +
+       std::to_string(reader.schema_version()) + "), " + std::to_string(runs.size()) + " run(s) in the file" +
+       (options.runs.empty() ? std::string() : ", " + std::to_string(chosen.size()) + " shown") +
+       (options.software_version.empty() ? "" : "; written by " + escape_xml(options.software_version)) +
+       ".</p>\n<nav>";
+  for (auto id : chosen) h += "<a href=\"#run-" + std::to_string(id) + "\">run " + std::to_string(id) + "</a>";
+  if (study_header) h += "<a href=\"#study\">study</a>";
+  h += "</nav></header>\n";
+  if (chosen.empty() && !study_header) h += "<p>The file holds no runs and no study.</p>\n";
+  for (auto id : chosen) {
+    const RunData d = load_run(reader, id);
+    RunSection(d, page).write();
+    ++stats.runs;
+  }
+  if (study_header) {
+    study_section(file, *study_header, page);
+    stats.study = true;
+  }
+  h += "<pre id=\"alc-dom-check\"></pre>\n";
+  h += kScript;
+  h += "</body>\n</html>\n";
+  if (stats_out) *stats_out = stats;
+  return std::move(page.html);
+}
+
+}  // namespace alc::report

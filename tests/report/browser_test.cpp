@@ -1,0 +1,95 @@
+// The report in a real browser (Debian's chromium, headless; scripts/test.sh installs it): the page
+// loads without a console message or script error, and the charts the browser holds carry the
+// series and points the report drew (counted in the page from the DOM's path data); a screenshot is
+// kept in the build tree. One browser launch per test.
+#include <catch2/catch.hpp>
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "report/run_data.hpp"
+#include "report_test_support.hpp"
+#include "storage/history_reader.hpp"
+
+using namespace alc;
+using namespace alc::report;
+
+namespace {
+
+// The text of <pre id="alc-dom-check"> in a dumped DOM, entities decoded.
+std::string dom_check(const std::string& dom) {
+  const std::string open = "<pre id=\"alc-dom-check\" data-done=\"1\">";
+  const auto a = dom.find(open);
+  if (a == std::string::npos) return "";
+  const auto b = dom.find("</pre>", a);
+  std::string raw = dom.substr(a + open.size(), b - a - open.size()), text;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    if (raw.compare(i, 5, "&amp;") == 0) text += '&', i += 4;
+    else if (raw.compare(i, 4, "&lt;") == 0) text += '<', i += 3;
+    else if (raw.compare(i, 4, "&gt;") == 0) text += '>', i += 3;
+    else text += raw[i];
+  }
+  return text;
+}
+
+}  // namespace
+
+TEST_CASE("browser: the report loads without console errors and its charts hold the expected series and points",
+          "[report][browser]") {
+  const test::Scratch scratch("browser-dom");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  ReportStats stats;
+  const auto page = dir / "report.html";
+  test::io_write(page, html_report(h.db, {}, &stats));
+  const test::Browser b = test::chromium(dir, "--virtual-time-budget=10000 --dump-dom", page);
+  REQUIRE(b.exit_code == 0);
+  INFO(b.err);
+  CHECK(b.err.find(":CONSOLE") == std::string::npos);  // no console message at all, errors included
+  const std::string text = dom_check(b.out);
+  REQUIRE_FALSE(text.empty());
+  const auto j = nlohmann::json::parse(text);
+  CHECK(j.at("errors").empty());
+  const auto& charts = j.at("charts");
+  CHECK(charts.size() == stats.charts);
+  std::size_t series = 0, points = 0;
+  const storage::HistoryReader reader(h.db);
+  const RunData d = load_run(reader, h.run);
+  std::size_t measured_series = 0;
+  for (const auto& c : charts)
+    for (const auto& s : c.at("series")) {
+      ++series;
+      points += s.at("points").get<std::size_t>();
+      if (s.at("name") == "measured (probes)") {
+        ++measured_series;
+        CHECK(s.at("points").get<std::size_t>() == d.probes.size());
+      }
+      if (s.at("name") == "predicted") {
+        CHECK(s.at("points").get<std::size_t>() > 888);
+        CHECK(s.at("points").get<std::size_t>() <= 2 * 888);
+      }
+    }
+  CHECK(measured_series == d.run.output_names.size());
+  CHECK(series == stats.series);
+  CHECK(points == stats.points);
+  CHECK(charts.at(0).at("id") == "run1-E_X0C");
+  CHECK(charts.at(0).at("series").size() == 2);  // predicted, measured
+}
+
+TEST_CASE("browser: a screenshot of the report is kept as a test artifact", "[report][browser]") {
+  const test::Scratch scratch("browser-shot");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const auto page = dir / "report.html";
+  test::io_write(page, html_report(h.db, {}));
+  const auto artifacts = std::filesystem::path(ALC_TEST_BINARY_DIR) / "report-artifacts";
+  std::filesystem::create_directories(artifacts);
+  const auto png = artifacts / "report.png";
+  std::filesystem::remove(png);
+  const test::Browser b = test::chromium(dir, "--window-size=1040,1800 --screenshot=\"" + png.string() + "\"", page);
+  INFO(b.err);
+  REQUIRE(b.exit_code == 0);
+  const std::string bytes = alc_test::slurp(png);
+  REQUIRE(bytes.size() > 20000);  // a page of charts, not a blank one
+  CHECK(bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
+}

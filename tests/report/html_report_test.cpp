@@ -1,0 +1,176 @@
+// The report page without a browser: its structure for a short history, the indicators recomputed
+// from the history against the replay's, and the refusals (not a history, unknown --run).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <string>
+
+#include "../cli_support.hpp"
+#include "report/run_data.hpp"
+#include "report_test_support.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/storage_error.hpp"
+
+using namespace alc;
+using namespace alc::report;
+
+
+TEST_CASE("report page of a short history: every chart - phases - updates - refused command - tables", "[report][html]") {
+  const test::Scratch scratch("html");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  ReportStats stats;
+  const std::string html = html_report(h.db, {}, &stats);
+  const storage::HistoryReader reader(h.db);
+  const RunData d = load_run(reader, h.run);
+  const std::size_t outputs = d.run.output_names.size();
+  REQUIRE(outputs == 7);
+  // Per output an error and a residual chart; inputs in °C and rpm; probe interval and Pd; offsets in
+  // µm and µrad.
+  const std::size_t charts = 2 * outputs + 2 + 2 + 2;
+  CHECK(stats.runs == 1);
+  CHECK(stats.charts == charts);
+  CHECK(test::count(html, "<svg class=\"alc-chart\"") == charts);
+  CHECK(test::count(html, "<path class=\"series") == stats.series);
+  // Each probe is a point of its output's measured series and of its residual series.
+  CHECK(test::count(html, "data-name=\"measured (probes)\" data-style=\"points\" data-points=\"" +
+                        std::to_string(d.probes.size()) + "\"") == outputs);
+  // The prediction (one per minute) is reduced for display, never below one point per pixel column.
+  CHECK(d.predictions.size() > 2 * 888);
+  CHECK(test::count(html, "data-source-points=\"" + std::to_string(d.predictions.size()) + "\"") >= outputs);
+  // Phases shaded (CP, NG, Post-CP) on every error chart; every fit marked.
+  CHECK(test::count(html, "class=\"span span-CP\"") >= 2 * outputs);
+  CHECK(test::count(html, "class=\"span span-NG\"") >= 2 * outputs);
+  std::size_t adopted = 0;
+  for (const auto& m : d.models) adopted += m.adopted;
+  CHECK(adopted > 0);
+  CHECK(test::count(html, "class=\"marker marker-update\"") == 2 * outputs * adopted);
+  CHECK(test::count(html, "class=\"hband\"") == outputs);  // the ACL band on each residual chart
+  // Offsets: the refused command is a red line on both offset charts and a row with its reason.
+  CHECK(test::count(html, "class=\"marker marker-refused\"") == 2);
+  CHECK(html.find("exceeds the limit of 50 µm") != std::string::npos);
+  CHECK(test::count(html, "class=\"marker marker-sent\"") > 0);
+  // Units on every axis: each y label carries [unit], each x axis is time [h].
+  CHECK(test::count(html, ">time [h]</text>") == charts);
+  CHECK(html.find(">E_X0C [µm]</text>") != std::string::npos);
+  CHECK(html.find(">E_A0C [µm/m]</text>") != std::string::npos);
+  CHECK(html.find(">temperatures [°C]</text>") != std::string::npos);
+  CHECK(html.find(">interval [min]</text>") != std::string::npos);
+  CHECK(html.find(">Pd [%]</text>") != std::string::npos);
+  // Tables: indicators (a row per output) and parameters.
+  CHECK(test::count(html, "<tr><td>E_") == outputs);
+  CHECK(html.find("<td>parameters.acl_linear_um</td><td>2.5</td>") != std::string::npos);
+  // Self-contained: nothing to fetch.
+  CHECK(html.find("<link") == std::string::npos);
+  CHECK(html.find(" src=") == std::string::npos);
+  CHECK(html.find("url(http") == std::string::npos);
+  CHECK(html.find("@import") == std::string::npos);
+}
+
+TEST_CASE("indicators from the history: M - Pd - CP end - NG phases - updates as the replay's - P99 over the probes",
+          "[report][html]") {
+  const test::Scratch scratch("indicators");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const storage::HistoryReader reader(h.db);
+  const RunData d = load_run(reader, h.run);
+  const runtime::ReplayReport r = history_indicators(d);
+  CHECK(r.M == h.replay.M);
+  CHECK(r.Pd == h.replay.Pd);
+  CHECK(r.cp_end_s == h.replay.cp_end_s);
+  CHECK(r.ng_phases == h.replay.ng_phases);
+  CHECK(r.updates == h.replay.updates);
+  CHECK(r.rejected_fits == h.replay.rejected_fits);
+  CHECK(r.duration_s == h.replay.duration_s);
+  REQUIRE(r.outputs.size() == h.replay.outputs.size());
+  // Evaluated on the probes from the end of CP on (the replay also counts unprobed measurements).
+  int probes_after_cp = 0;
+  for (const auto& p : d.probes) probes_after_cp += p.time_s >= r.cp_end_s;
+  for (std::size_t k = 0; k < r.outputs.size(); ++k) {
+    CHECK(r.outputs[k].measurements == probes_after_cp);
+    CHECK(r.outputs[k].measurements < h.replay.outputs[k].measurements);
+    CHECK(std::isfinite(r.outputs[k].P99));
+    CHECK(std::isfinite(r.baseline[k].P99));
+  }
+  // One output by hand: P99 of |error - prediction in force| over those probes.
+  std::vector<double> measured, predicted;
+  for (const auto& p : d.probes)
+    if (p.time_s >= r.cp_end_s) {
+      measured.push_back(probe_error(p, 0));
+      predicted.push_back(prediction_at(d, p.time_s)->predicted[0]);
+    }
+  CHECK(r.outputs[0].P99 == runtime::evaluate_output("E_X0C", measured, predicted).P99);
+}
+
+TEST_CASE("report refuses a file that is not a history and an unknown run - naming them", "[report][html]") {
+  const test::Scratch scratch("refusals");
+  const auto& dir = scratch.dir;
+  const auto text = dir / "notes.txt";
+  std::ofstream(text) << "not a database\n";
+  CHECK_THROWS_AS(html_report(text, {}), storage::StorageError);
+  const auto h = test::short_history(dir);
+  ReportOptions o;
+  o.runs = {1, 42};
+  try {
+    (void)html_report(h.db, o);
+    FAIL("no error for run 42");
+  } catch (const UnknownRun& e) {
+    const std::string m = e.what();
+    CHECK(m.find(h.db.string()) != std::string::npos);
+    CHECK(m.find("no run 42") != std::string::npos);
+    CHECK(m.find("its runs: 1") != std::string::npos);
+  }
+}
+
+TEST_CASE("alc report: writes the page - not a history - a missing file or an unknown --run exit 2 naming it",
+          "[report][cli]") {
+  const test::Scratch scratch("cli");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const auto out = dir / "page.html";
+  auto r = alc_test::run_alc("report \"" + h.db.string() + "\" --run 1 --out \"" + out.string() + "\"", "report_cli");
+  CHECK(r.exit_code == 0);
+  CHECK(r.out.find(out.string()) != std::string::npos);
+  CHECK(alc_test::slurp(out).find("<section class=\"run\" id=\"run-1\"") != std::string::npos);
+
+  r = alc_test::run_alc("report \"" + h.db.string() + "\" --run 7 --out \"" + out.string() + "\"", "report_cli");
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("no run 7") != std::string::npos);
+  CHECK(r.err.find(h.db.string()) != std::string::npos);
+
+  const auto text = dir / "table.csv";
+  std::ofstream(text) << "time_s,E_X0C\n0,1\n";
+  r = alc_test::run_alc("report \"" + text.string() + "\" --out \"" + out.string() + "\"", "report_cli");
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find(text.string()) != std::string::npos);
+  CHECK(r.err.find("not an SQLite database") != std::string::npos);
+
+  r = alc_test::run_alc("report \"" + (dir / "missing.sqlite").string() + "\"", "report_cli");
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("missing.sqlite") != std::string::npos);
+
+  r = alc_test::run_alc("report \"" + h.db.string() + "\" --run x", "report_cli");
+  CHECK(r.exit_code == 2);
+}
+
+TEST_CASE("report of a study file: the Pareto front of each case over every parameter set", "[report][html][cli]") {
+  const test::Scratch scratch("study");
+  const auto& dir = scratch.dir;
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
+  const auto db = dir / "study.sqlite";
+  auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                 db.string() + "\"",
+                             "report_study");
+  REQUIRE(r.exit_code == 0);
+  ReportStats stats;
+  const std::string html = html_report(db, {}, &stats);
+  CHECK(stats.study);
+  CHECK(stats.runs == 0);
+  CHECK(stats.charts == 1);
+  CHECK(html.find("<section class=\"study\" id=\"study\">") != std::string::npos);
+  CHECK(html.find(">mean linear P99 [µm]</text>") != std::string::npos);
+  CHECK(html.find(">Pd [%]</text>") != std::string::npos);
+  CHECK(html.find("data-name=\"parameter sets\" data-style=\"points\" data-points=\"4\"") != std::string::npos);
+  CHECK(html.find("data-name=\"Pareto front\"") != std::string::npos);
+}

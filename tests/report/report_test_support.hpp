@@ -1,0 +1,99 @@
+#pragma once
+// Shared by the report tests: a short history (case A cut to 30 h: CP, an NG phase, model updates,
+// offsets sent to an NC directory, and one refused offset command added), the report written from
+// it, and headless chromium run on a file.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "../cli_support.hpp"
+#include "report/html_report.hpp"
+#include "runtime/replay.hpp"
+#include "scenarios/load_cases.hpp"
+#include "common/atomic_file.hpp"
+#include "storage/history_writer.hpp"
+
+namespace alc::report::test {
+
+// Occurrences of `what` in `text`.
+inline std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto p = text.find(what); p != std::string::npos; p = text.find(what, p + what.size())) ++n;
+  return n;
+}
+
+inline constexpr double kHours = 30.0;  // [h] of case A: CP 6.5 h, a breach at 8.5 h, NG, Post-CP
+
+struct ShortHistory {
+  std::filesystem::path db;
+  runtime::ReplayReport replay;  // what alc replay printed for it
+  storage::RunId run = 0;
+};
+
+// A fresh directory per test process and name, removed with its files at the end of the test.
+struct Scratch {
+  explicit Scratch(const std::string& name)
+      : dir(std::filesystem::temp_directory_path() / ("alc-report-test-" + std::to_string(::getpid()) + "-" + name)) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  std::filesystem::path dir;
+};
+
+inline ShortHistory short_history(const std::filesystem::path& dir) {
+  scenarios::LoadCaseSpec spec = scenarios::load_case_spec("A");
+  spec.info.duration_h = kHours;
+  const auto simulated = scenarios::simulate_load_case(spec, spec.info.default_seed);
+  ShortHistory h;
+  h.db = dir / "history.sqlite";
+  runtime::ReplayOptions o;
+  o.source = "case A (30 h)";
+  o.parameters.acl_linear_um = 2.5;  // breaches within 30 h: NG phases to draw
+  o.db = h.db;
+  o.nc = runtime::NcOutputSetup{dir / "nc", nc::Dialect::LinuxCNC};
+  runtime::Replay replay(simulated.scenario, std::move(o));
+  replay.run();
+  h.replay = replay.report();
+  h.run = *replay.run_id();
+  // One command the safety gate refused (a replay within the default limits refuses none).
+  storage::HistoryWriter writer(h.db);
+  writer.add(storage::NcCommandRecord{h.run, 20 * 3600.0, "offsets", "{\"X_um\": 900}", "file:test", false,
+                                      "X step 900 µm exceeds the limit of 50 µm", std::nullopt, ""});
+  writer.close();
+  return h;
+}
+
+inline void io_write(const std::filesystem::path& file, const std::string& text) {
+  io::write_file_atomically(file, text);
+}
+
+struct Browser {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+// chromium --headless=new on a local file, with its own profile; console messages go to stderr
+// (--enable-logging=stderr: lines with ":CONSOLE").
+inline Browser chromium(const std::filesystem::path& dir, const std::string& args, const std::filesystem::path& page) {
+  const std::string cmd = "timeout 120 chromium --headless=new --no-sandbox --disable-gpu --user-data-dir=\"" +
+                          (dir / "profile").string() + "\" --enable-logging=stderr --v=0 " + args + " \"file://" +
+                          page.string() + "\" >\"" + (dir / "browser.out").string() + "\" 2>\"" +
+                          (dir / "browser.err").string() + "\" </dev/null";
+  const int status = std::system(cmd.c_str());
+  Browser b;
+  if (WIFEXITED(status)) b.exit_code = WEXITSTATUS(status);
+  b.out = alc_test::slurp(dir / "browser.out");
+  b.err = alc_test::slurp(dir / "browser.err");
+  return b;
+}
+
+}  // namespace alc::report::test

@@ -1,0 +1,86 @@
+// The SVG chart writer: display downsampling keeps every peak and bounds the points; the drawn
+// points, series and escaping the page's checks rely on.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "report/svg_chart.hpp"
+#include "report_test_support.hpp"
+
+using namespace alc::report;
+
+
+TEST_CASE("min/max downsampling keeps every peak and at most two points per pixel column", "[report][svg]") {
+  // 8 days at 1 min on 888 columns: a one-sample spike in every column must survive.
+  const std::size_t n = 8 * 1440 + 1, buckets = 888;
+  std::vector<double> x(n), y(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = static_cast<double>(i) / 60.0;
+    y[i] = std::sin(static_cast<double>(i) / 300.0);
+  }
+  y[5000] = 50.0;
+  y[9000] = -40.0;
+  const auto keep = minmax_downsample(x, y, x.front(), x.back(), buckets);
+  CHECK(keep.size() <= 2 * buckets);
+  CHECK(keep.size() > buckets);
+  CHECK(std::find(keep.begin(), keep.end(), std::size_t{5000}) != keep.end());
+  CHECK(std::find(keep.begin(), keep.end(), std::size_t{9000}) != keep.end());
+  CHECK(std::is_sorted(keep.begin(), keep.end()));
+  CHECK(keep.front() == 0);
+  // Few points: all kept.
+  const std::vector<double> sx = {0, 1, 2}, sy = {1, 2, 3};
+  CHECK(minmax_downsample(sx, sy, 0, 2, buckets).size() == 3);
+}
+
+TEST_CASE("a gap of NaN stays a gap after downsampling", "[report][svg]") {
+  std::vector<double> x(4000), y(4000, 1.0);
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = static_cast<double>(i);
+  for (std::size_t i = 2000; i < 2400; ++i) y[i] = std::numeric_limits<double>::quiet_NaN();
+  Chart c;
+  c.id = "gap";
+  c.series = {{"s", "#000", Series::Style::Line, x, y}};
+  const std::string svg = render_svg(c);
+  // Two pieces: the line is lifted over the gap (a second M), never drawn across it.
+  const auto d = svg.substr(svg.find(" d=\"") + 4);
+  CHECK(test::count(d.substr(0, d.find('"')), "M") == 2);
+}
+
+TEST_CASE("render_svg: one path per series with the points it draws - axis labels and escaped text", "[report][svg]") {
+  Chart c;
+  c.id = "t";
+  c.title = "E_X0C <measured> & \"predicted\"";
+  c.x_label = "time [h]";
+  c.y_label = "E_X0C [µm]";
+  c.series.push_back({"line", "#111", Series::Style::Line, {0, 1, 2, 3}, {1, 2, std::nan(""), 4}});
+  c.series.push_back({"points", "#222", Series::Style::Points, {0.5, 1.5}, {3, 3}});
+  c.series.push_back({"step", "#333", Series::Style::Step, {0, 2}, {5, 120}});
+  c.spans = {{0, 1, "CP"}, {1, 3, "NG"}};
+  c.hbands = {{-5, 5, "ACL ±5 µm"}};
+  c.markers = {{1.0, "update", "model update"}, {2.0, "refused", "refused <X>"}};
+  const std::string svg = render_svg(c);
+  CHECK(svg.find("data-series=\"3\"") != std::string::npos);
+  CHECK(test::count(svg, "<path class=\"series") == 3);
+  CHECK(svg.find("data-name=\"line\" data-style=\"line\" data-points=\"3\" data-source-points=\"4\"") != std::string::npos);
+  CHECK(drawn_points(c, c.series[0]) == 3);
+  CHECK(svg.find("data-points=\"2\" data-source-points=\"2\"") != std::string::npos);
+  CHECK(svg.find(">time [h]</text>") != std::string::npos);
+  CHECK(svg.find(">E_X0C [µm]</text>") != std::string::npos);
+  CHECK(svg.find("E_X0C &lt;measured&gt; &amp; &quot;predicted&quot;") != std::string::npos);
+  CHECK(svg.find("refused &lt;X&gt;") != std::string::npos);
+  CHECK(test::count(svg, "class=\"span span-") == 2);
+  CHECK(test::count(svg, "class=\"hband\"") == 1);
+  CHECK(test::count(svg, "class=\"marker marker-refused\"") == 1);
+  CHECK(svg.find("<script") == std::string::npos);
+}
+
+TEST_CASE("nice ticks: round steps - hours in multiples of 6 - 12 - 24 h", "[report][svg]") {
+  CHECK(nice_ticks(0, 10, 5) == std::vector<double>{0, 2.5, 5, 7.5, 10});
+  CHECK(nice_ticks(0, 100, 5) == std::vector<double>{0, 25, 50, 75, 100});
+  const auto h = nice_ticks(0, 192, 9, true);
+  REQUIRE(h.size() >= 2);
+  CHECK(h[1] - h[0] == 24.0);
+  CHECK(nice_ticks(1, 1, 5).empty());
+}
