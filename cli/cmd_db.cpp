@@ -146,11 +146,10 @@ void add_db_command(CLI::App& app) {
   auto options = std::make_shared<storage::BenchOptions>();
   auto dir = std::make_shared<std::string>(std::filesystem::temp_directory_path().string());
   auto* bench = db->add_subcommand("bench", "Records per second written, batched against one transaction per record");
-  bench->add_option("--samples", options->samples, "Input samples per mode (each with a prediction)")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  bench->add_option("--inputs", options->inputs, "Values per input sample")->capture_default_str()->check(CLI::PositiveNumber);
-  bench->add_option("--batch", options->batch_size, "Records per transaction in the batched mode")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+  add_whole_option(bench, "--samples", options->samples, "Input samples per mode (each with a prediction)", 1,
+                   1000000000);
+  add_whole_option(bench, "--inputs", options->inputs, "Values per input sample", 1, 100000);
+  add_whole_option(bench, "--batch", options->batch_size, "Records per transaction in the batched mode", 1, 1000000000);
   bench->add_option("--dir", *dir, "Directory for the scratch databases (new files alc-bench-<pid>-<n>.sqlite, "
                                    "removed afterwards)")->capture_default_str();
   bench->callback([options, dir] { run_bench(*options, *dir); });

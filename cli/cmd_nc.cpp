@@ -145,7 +145,7 @@ void add_nc_command(CLI::App& app) {
   cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
       ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));
   cmd->add_option("--spool-dir", args->spool_dir, "directory for --sink spool");
-  cmd->add_option("--port", args->port, "linuxcncrsh port on localhost")->check(CLI::Range(1, 65535));
+  add_whole_option(cmd, "--port", args->port, "linuxcncrsh port on localhost", 1, 65535);
   cmd->callback([args] { run_nc(*args); });
 }
 

@@ -27,6 +27,8 @@ namespace alc::cli {
 
 namespace {
 
+constexpr double kMaxHours = 1e9;  // [h] largest --stop-at, --kill-at (beyond any scenario)
+
 struct ReplayArgs {
   std::string file;
   std::string case_name;
@@ -306,12 +308,14 @@ void add_replay_command(CLI::App& app) {
                 "unconfirmed one is set aside as an outlier and ends NG");
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
-  cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");
+  add_number_option(cmd, "--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)",
+                    0.0, kMaxHours);
   cmd->add_flag("--resume", args->resume,
                 "Continue the latest unfinished run of this scenario in --db from its saved state");
-  cmd->add_option("--kill-at", args->kill_at_h,
-                  "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
-                  "time, leaving the history as a crash would");
+  add_number_option(cmd, "--kill-at", args->kill_at_h,
+                    "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
+                    "time, leaving the history as a crash would",
+                    0.0, kMaxHours);
   cmd->add_flag("--json", args->json, "Print the result as JSON instead of tables");
   cmd->add_option("--residuals", args->residuals,
                   "Write time_s, each measured E_ column and its prediction E_…_pred at every recorded "

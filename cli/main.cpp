@@ -23,9 +23,10 @@ int main(int argc, char** argv) {
   app.add_option("--log-file", log_options.file,
                  "Also log to FILE (rotating: FILE, FILE.1, ...); its directory must exist")
       ->option_text("FILE");
-  app.add_option("--log-max-bytes", log_options.max_file_bytes, "Size at which the log file rotates (default: 10 MiB)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--log-max-files", log_options.max_files, "Rotated log files kept besides FILE (default: 5)");
+  alc::cli::add_whole_option(&app, "--log-max-bytes", log_options.max_file_bytes,
+                             "Size at which the log file rotates (default: 10 MiB)", 1, std::uint64_t{1} << 50);
+  alc::cli::add_whole_option(&app, "--log-max-files", log_options.max_files,
+                             "Rotated log files kept besides FILE (default: 5)", 0, 200000);
   // Runs once the options are parsed and before the command's callback.
   app.parse_complete_callback([&] {
     const auto level = alc::log::parse_level(log_level);

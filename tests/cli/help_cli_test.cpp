@@ -100,7 +100,7 @@ TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message o
   check_usage_error("replay --case C --max-order 1.5", "--max-order");
   check_usage_error("replay --case C --seed many", "--seed");
   check_usage_error("replay --case C --cp", "--cp");
-  check_usage_error("replay --case C --since inf", "--since: 'inf' is not a finite time");
+  check_usage_error("replay --case C --since inf", "--since: 'inf' is not a number >= 0");
   check_usage_error("replay --case C --since -2", "--since");
   check_usage_error("bench --repeat x", "--repeat");
   check_usage_error("db", "A subcommand is required");

@@ -105,7 +105,7 @@ TEST_CASE("alc replay --resume refuses other parameters than the stored run's") 
 TEST_CASE("alc replay: usage errors name the option and value") {
   const Run bad = alc("replay --case A --interval soon");
   CHECK(bad.exit_code == 2);
-  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a non-negative number or 'inf'"));
+  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a number >= 0 or inf"));
   const Run neither = alc("replay");
   CHECK(neither.exit_code == 2);
   CHECK_THAT(neither.err, Catch::Matchers::Contains("give exactly one of FILE.csv or --case"));
@@ -123,6 +123,36 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   const Run missing = alc("replay /nonexistent/rec.csv");
   CHECK(missing.exit_code == 1);
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
+}
+
+TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {
+  // Each of these ran (to the end, or at "-1 h", or as 16 h) before; now each is a usage error.
+  const char* const refused[][2] = {
+      {"replay --case A --db x.sqlite --stop-at nan", "--stop-at: 'nan' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at -inf", "--stop-at: '-inf' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at -1", "--stop-at: '-1' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at inf", "--stop-at: 'inf' is not a number >= 0"},
+      {"replay --case A --kill-at 1h", "--kill-at: '1h' is not a number >= 0"},
+      {"replay --case A --cp 0x10", "cp: '0x10' is not a number >= 0"},
+      {"--log-max-bytes 1e3 replay --case A", "--log-max-bytes: '1e3' is not a whole number from 1 to"},
+      {"--log-max-files -1 replay --case A", "--log-max-files: '-1' is not a whole number from 0 to"},
+      {"bench --repeat 0x2", "--repeat: '0x2' is not a whole number from 1 to 1000000"},
+      {"bench --long nan", "--long: 'nan' is not a number >= 0"},
+      {"bench --long 0.5", "--long: '0.5' is not a number from 1 to 3650"},
+      {"db bench --samples 2.5", "--samples: '2.5' is not a whole number from 1 to"},
+      {"db bench --batch 0", "--batch: '0' is not a whole number from 1 to"},
+      {"nc --dialect linuxcnc --sink linuxcncrsh --port 70000", "--port: '70000' is not a whole number from 1 to 65535"},
+      {"study --case A --jobs -2", "--jobs: '-2' is not a whole number from 0 to 4096"},
+      {"study --case A --bench --bench-sample 5x", "--bench-sample: '5x' is not a whole number"},
+      {"study --grid paper --case A --shard 0x1/2", "--shard: '0x1/2' is not I/N"},
+      {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
+  };
+  for (const auto& [args, message] : refused) {
+    INFO(args);
+    const Run r = alc(args);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(message));
+  }
 }
 
 TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
