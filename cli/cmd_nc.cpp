@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "common/input_file.hpp"
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/jsonl.hpp"
 #include "nc_interface/machine_config.hpp"
@@ -30,6 +31,8 @@ struct NcArgs {
 // The offsets in force now: axis_offsets lines, at most one per work offset. A work offset without a
 // line is taken as zero offsets.
 std::vector<nc::AxisOffsets> read_in_force(const std::string& path) {
+  if (const std::string problem = io::input_file_problem(path); !problem.empty())
+    throw UsageError("--in-force " + path + ": " + problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw UsageError("--in-force: cannot open " + path);
   std::vector<nc::NcCommand> lines;
@@ -69,6 +72,8 @@ void run_nc(const NcArgs& args) {
     if (args.input.empty() || args.input == "-") {
       commands = nc::read_commands_jsonl(std::cin, "<stdin>");
     } else {
+      if (const std::string problem = io::input_file_problem(args.input); !problem.empty())
+        throw UsageError("--in " + args.input + ": " + problem);
       std::ifstream in(args.input, std::ios::binary);
       if (!in) throw UsageError("cannot open " + args.input);
       commands = nc::read_commands_jsonl(in, args.input);

@@ -12,6 +12,7 @@
 
 #include "alc/error_kind.hpp"
 #include "common/atomic_file.hpp"
+#include "common/input_file.hpp"
 #include "common/number_text.hpp"
 
 namespace alc::scenarios {
@@ -215,17 +216,6 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
   return s;
 }
 
-const char* file_type_name(std::filesystem::file_type type) {
-  switch (type) {
-    case std::filesystem::file_type::directory: return "a directory";
-    case std::filesystem::file_type::fifo: return "a pipe";
-    case std::filesystem::file_type::character: return "a character device";
-    case std::filesystem::file_type::block: return "a block device";
-    case std::filesystem::file_type::socket: return "a socket";
-    default: return "not a file";
-  }
-}
-
 constexpr const char* kEmptyFile = "the file is empty (no header line)";
 
 }  // namespace
@@ -237,11 +227,10 @@ Scenario read_scenario_csv(const std::filesystem::path& path) {
   // character device (/dev/stdin, a shell's <(...)) is read like a file.
   std::error_code ec;
   const auto type = std::filesystem::status(path, ec).type();
-  const bool exists = !ec && type != std::filesystem::file_type::not_found;
   const bool regular = type == std::filesystem::file_type::regular;
-  const bool stream = type == std::filesystem::file_type::fifo || type == std::filesystem::file_type::character;
-  const std::string not_regular = std::string("not a regular file (") + file_type_name(type) + ")";
-  if (exists && !regular && !stream) throw ScenarioCsvError(path.string(), 0, 0, "", "", not_regular);
+  if (const std::string problem = io::input_file_problem(path); !problem.empty())
+    throw ScenarioCsvError(path.string(), 0, 0, "", "", problem);
+  const std::string not_regular = std::string("not a regular file (") + io::file_type_name(type) + ")";
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ScenarioCsvError(path.string(), 0, 0, "", "", "cannot open file for reading");
   return parse_csv(in, path.string(), regular ? std::string(kEmptyFile) : not_regular + " and nothing could be read from it");

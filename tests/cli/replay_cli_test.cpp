@@ -155,6 +155,19 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
   }
 }
 
+TEST_CASE("a result that does not reach stdout is a failure (issue 13 item 8)") {
+  // /dev/full: every write fails with ENOSPC. Before, these exited 0.
+  for (const std::string args : {"replay --case A --json", "replay --case A", "db path", "simulate --list"}) {
+    INFO(args);
+    const fs::path err = work_dir() / "full_err";
+    const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >/dev/full 2>\"" + err.string() + "\"";
+    const int status = std::system(cmd.c_str());
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 1);
+    CHECK_THAT(slurp(err), Catch::Matchers::Contains("alc: error: writing to stdout failed: No space left on device"));
+  }
+}
+
 TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
   const fs::path file = work_dir() / "res.csv";
   REQUIRE(alc("replay --case A --residuals \"" + file.string() + "\"").exit_code == 0);
