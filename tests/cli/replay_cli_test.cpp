@@ -168,6 +168,31 @@ TEST_CASE("a result that does not reach stdout is a failure (issue 13 item 8)") 
   }
 }
 
+TEST_CASE("output paths that are symbolic links or directories are refused and left as they were (issue 13 item 7)") {
+  const fs::path dir = work_dir() / "out_paths";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "adir");
+  { std::ofstream(dir / "target.csv") << "keep\n"; }
+  fs::create_symlink(dir / "target.csv", dir / "link.csv");
+  const std::string db = (dir / "h.sqlite").string();
+  REQUIRE(alc("replay --case A --cp 1 --db \"" + db + "\" --stop-at 2").exit_code == 0);
+  const std::string outputs[] = {"replay --case A --cp 1 --residuals ", "db export \"" + db + "\" --table runs --out ",
+                                 "simulate --case A --out "};
+  for (const std::string& command : outputs) {
+    for (const fs::path& target : {dir / "link.csv", dir / "adir"}) {
+      INFO(command << target);
+      const Run r = alc(command + "\"" + target.string() + "\"");
+      CHECK(r.exit_code == 1);
+      CHECK_THAT(r.err, Catch::Matchers::Contains("cannot write '" + target.string() + "': it is a"));
+    }
+  }
+  CHECK(fs::is_symlink(dir / "link.csv"));
+  CHECK(slurp(dir / "target.csv") == "keep\n");
+  CHECK(fs::is_empty(dir / "adir"));
+  for (const auto& e : fs::directory_iterator(dir)) CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
   const fs::path file = work_dir() / "res.csv";
   REQUIRE(alc("replay --case A --residuals \"" + file.string() + "\"").exit_code == 0);
