@@ -193,6 +193,18 @@ TEST_CASE("output paths that are symbolic links or directories are refused and l
   fs::remove_all(dir);
 }
 
+TEST_CASE("a non-UTF-8 column name is refused before a run is begun (issue 13 item 4)") {
+  const fs::path dir = work_dir() / "utf8";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  { std::ofstream(dir / "bad.csv", std::ios::binary) << "time_s,T\xFE,E_X0C\n0,1,2\n60,1,2\n"; }
+  const Run r = alc("replay \"" + (dir / "bad.csv").string() + "\" --db \"" + (dir / "h.sqlite").string() + "\"");
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Matchers::Contains((dir / "bad.csv").string() + ":1:2: column name is not UTF-8"));
+  CHECK_FALSE(fs::exists(dir / "h.sqlite"));  // no run left 'running'
+  fs::remove_all(dir);
+}
+
 TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
   const fs::path file = work_dir() / "res.csv";
   REQUIRE(alc("replay --case A --residuals \"" + file.string() + "\"").exit_code == 0);
