@@ -134,9 +134,11 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, run
 }
 
 // More of the run's identity than the parameters (which are stored as parsed values): what the
-// parameters do not say but the results depend on.
-nlohmann::json identity_of(const ReplayArgs& a) {
+// parameters do not say but the results depend on, the data included (scenarios::content_hash: a
+// --resume with another recording under the same file name is refused).
+nlohmann::json identity_of(const ReplayArgs& a, const scenarios::Scenario& scenario) {
   nlohmann::json j = nlohmann::json::object();
+  j["scenario_hash"] = scenarios::content_hash(scenario);
   if (a.seed_given) j["seed"] = a.seed;
   if (!a.machine.empty()) j["machine"] = a.machine;  // its chain gives the stored offsets: --resume must repeat it
   return j;
@@ -215,7 +217,7 @@ void run_replay(const ReplayArgs& a) {
     runtime::ReplayOptions o;
     o.parameters = params;
     o.source = source;
-    o.identity = identity_of(a);
+    o.identity = identity_of(a, scenario);
     o.db = a.db;
     o.resume = a.resume;
     o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
