@@ -196,6 +196,17 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
   impl_->file = path;
   if (const std::string problem = options.validate(); !problem.empty())
     throw StorageError(StorageErrorKind::InvalidArgument, path, "writer options: " + problem);
+  if (options.must_exist) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);  // follows a symbolic link
+    if (!std::filesystem::exists(status))
+      throw StorageError(StorageErrorKind::NotFound, path,
+                         std::filesystem::is_symlink(std::filesystem::symlink_status(path, ec))
+                             ? "no history to resume: a symbolic link to nothing"
+                             : "no history to resume: the file does not exist");
+    if (std::filesystem::is_regular_file(status) && std::filesystem::file_size(path, ec) == 0 && !ec)
+      throw StorageError(StorageErrorKind::NotFound, path, "no history to resume: the file is empty");
+  }
   impl_->db = detail::open_for_writing(path, options);
   impl_->prepare();
   alc::log::get("storage")->info("opened history {} for writing", path.string());

@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "../cli_support.hpp"
@@ -90,5 +91,30 @@ TEST_CASE("a damaged snapshot is reported by db check and skipped by --resume, w
                                 Catch::Matchers::Contains("snapshot 1 at"));
     CHECK(sql(db, "SELECT count(*) FROM input_samples") + " " + sql(db, "SELECT status FROM runs") == rows);
   }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("resume on an empty file or a dangling symbolic link is refused and creates nothing (issue 13 item 12)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "resume_nothing";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  { std::ofstream(dir / "empty.sqlite"); }
+  fs::create_symlink(dir / "nowhere.sqlite", dir / "dangling.sqlite");
+  const std::pair<std::string, std::string> cases[] = {{"empty.sqlite", "the file is empty"},
+                                                       {"dangling.sqlite", "a symbolic link to nothing"},
+                                                       {"missing.sqlite", "the file does not exist"}};
+  for (const auto& [name, why] : cases) {
+    INFO(name);
+    const CliRun r = run("replay --case A --db \"" + (dir / name).string() + "\" --resume");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains((dir / name).string()) &&
+                          Catch::Matchers::Contains("no history to resume: " + why));
+  }
+  CHECK(fs::file_size(dir / "empty.sqlite") == 0);
+  CHECK_FALSE(fs::exists(dir / "nowhere.sqlite"));
+  CHECK_FALSE(fs::exists(dir / "missing.sqlite"));
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
+  CHECK(entries == 2);  // no -wal, -shm or journal files either
   fs::remove_all(dir);
 }

@@ -38,6 +38,9 @@ struct WriterOptions {
   Durability durability = Durability::Process;
   bool create_directories = false;      // create missing parent directories of the file
   std::int64_t max_page_count = 0;      // cap on the file size in pages (0 = none); SQLITE_FULL above
+  // Open an existing history only (to resume a run in it): a missing or empty file, or a symbolic
+  // link to nothing, is StorageError(NotFound) and nothing is created or initialised.
+  bool must_exist = false;
 
   // Empty if valid, else which field is wrong and its value.
   std::string validate() const;
