@@ -1,8 +1,9 @@
-// Selection of built-in load cases by name, shared by the commands that take --case.
-#include <charconv>
-#include <system_error>
+// Shared by the commands: selection of built-in load cases by name (--case), seeds and the other
+// numeric options, all read by the one strict reader of number text (common/number_text.hpp).
+#include <stdexcept>
 
 #include "commands.hpp"
+#include "common/number_text.hpp"
 #include "scenarios/load_cases.hpp"
 
 namespace alc::cli {
@@ -22,12 +23,39 @@ std::vector<std::string> load_case_names(const std::string& selector) {
 }
 
 std::uint64_t parse_seed(const std::string& text) {
-  std::uint64_t value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (text.empty() || text.front() < '0' || text.front() > '9' || ec != std::errc() || ptr != end)
+  try {
+    return common::parse_whole_number("--seed", text, 0, UINT64_MAX);
+  } catch (const std::invalid_argument&) {
     throw UsageError("--seed must be a whole number from 0 to 18446744073709551615, got '" + text + "'");
-  return value;
+  }
+}
+
+std::uint64_t whole_option_value(const std::string& name, const std::string& text, std::uint64_t lo, std::uint64_t hi) {
+  try {
+    return common::parse_whole_number(name, text, lo, hi);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+}
+
+CLI::Option* add_number_option(CLI::App* cmd, const std::string& name, double& target, const std::string& help,
+                               double lo, double hi, bool allow_inf) {
+  return cmd
+      ->add_option_function<std::string>(
+          name, [&target, name, lo, hi, allow_inf](const std::string& text) {
+            double v = 0.0;
+            try {
+              v = common::parse_number(name, text, allow_inf);
+            } catch (const std::invalid_argument& e) {
+              throw UsageError(e.what());
+            }
+            if (v < lo || v > hi)
+              throw UsageError(name + ": '" + text + "' is not a number from " + common::shortest_text(lo) + " to " +
+                               common::shortest_text(hi));
+            target = v;
+          },
+          help)
+      ->type_name(allow_inf ? "NUMBER|inf" : "NUMBER");
 }
 
 }  // namespace alc::cli

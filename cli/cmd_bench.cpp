@@ -181,14 +181,13 @@ void add_bench_command(CLI::App& app) {
       "bench", "Benchmark: replay time per load case, the share spent in identification, and replay with "
                "the history database against replay without it (ratio), all in one invocation.");
   cmd->add_option("--case", args->case_name, "A, B, C, D, S16, H1-H5, all (A-D) or heldout (H1-H5)")->capture_default_str();
-  cmd->add_option("--repeat", args->repeat, "Runs per measurement; the best is reported")->capture_default_str();
-  cmd->add_option("--long", args->long_days,
+  add_whole_option(cmd, "--repeat", args->repeat, "Runs per measurement; the best is reported", 1, 1000000);
+  add_number_option(cmd, "--long", args->long_days,
                   "Long-run benchmark instead: case A (or --case B|C|D) stretched to DAYS days, recorded into a "
                   "history; peak RSS, µs/sample, samples kept, snapshot and database size (with its WAL) at 10, 30, "
                   "60, 90 ... days, "
-                  "with the default learning window and with --window inf")
-      ->type_name("DAYS")
-      ->check(CLI::Range(1.0, 3650.0));
+                  "with the default learning window and with --window inf", 1.0, 3650.0)
+      ->type_name("DAYS");
   cmd->callback([args] { run_bench(*args); });
 }
 

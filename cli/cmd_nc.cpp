@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "common/input_file.hpp"
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/jsonl.hpp"
 #include "nc_interface/machine_config.hpp"
@@ -30,6 +31,8 @@ struct NcArgs {
 // The offsets in force now: axis_offsets lines, at most one per work offset. A work offset without a
 // line is taken as zero offsets.
 std::vector<nc::AxisOffsets> read_in_force(const std::string& path) {
+  if (const std::string problem = io::input_file_problem(path); !problem.empty())
+    throw UsageError("--in-force " + path + ": " + problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw UsageError("--in-force: cannot open " + path);
   std::vector<nc::NcCommand> lines;
@@ -69,6 +72,8 @@ void run_nc(const NcArgs& args) {
     if (args.input.empty() || args.input == "-") {
       commands = nc::read_commands_jsonl(std::cin, "<stdin>");
     } else {
+      if (const std::string problem = io::input_file_problem(args.input); !problem.empty())
+        throw UsageError("--in " + args.input + ": " + problem);
       std::ifstream in(args.input, std::ios::binary);
       if (!in) throw UsageError("cannot open " + args.input);
       commands = nc::read_commands_jsonl(in, args.input);
@@ -145,7 +150,7 @@ void add_nc_command(CLI::App& app) {
   cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
       ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));
   cmd->add_option("--spool-dir", args->spool_dir, "directory for --sink spool");
-  cmd->add_option("--port", args->port, "linuxcncrsh port on localhost")->check(CLI::Range(1, 65535));
+  add_whole_option(cmd, "--port", args->port, "linuxcncrsh port on localhost", 1, 65535);
   cmd->callback([args] { run_nc(*args); });
 }
 

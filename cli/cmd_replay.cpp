@@ -28,6 +28,8 @@ namespace alc::cli {
 
 namespace {
 
+constexpr double kMaxHours = 1e9;  // [h] largest --stop-at, --kill-at (beyond any scenario)
+
 struct ReplayArgs {
   std::string file;
   std::string case_name;
@@ -166,9 +168,11 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, run
 }
 
 // More of the run's identity than the parameters (which are stored as parsed values): what the
-// parameters do not say but the results depend on.
-nlohmann::json identity_of(const ReplayArgs& a) {
+// parameters do not say but the results depend on, the data included (scenarios::content_hash: a
+// --resume with another recording under the same file name is refused).
+nlohmann::json identity_of(const ReplayArgs& a, const scenarios::Scenario& scenario) {
   nlohmann::json j = nlohmann::json::object();
+  j["scenario_hash"] = scenarios::content_hash(scenario);
   if (a.seed_given) j["seed"] = a.seed;
   if (!a.machine.empty()) j["machine"] = a.machine;  // its chain gives the stored offsets: --resume must repeat it
   return j;
@@ -255,7 +259,7 @@ void run_replay(const ReplayArgs& a) {
     runtime::ReplayOptions o;
     o.parameters = params;
     o.source = source;
-    o.identity = identity_of(a);
+    o.identity = identity_of(a, scenario);
     o.db = a.db;
     o.resume = a.resume;
     o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
@@ -360,12 +364,14 @@ void add_replay_command(CLI::App& app) {
                 "error without compensation and beyond the ACL (off by default; docs/adaptive.md)");
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
-  cmd->add_option("--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)");
+  add_number_option(cmd, "--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)",
+                    0.0, kMaxHours);
   cmd->add_flag("--resume", args->resume,
                 "Continue the latest unfinished run of this scenario in --db from its saved state");
-  cmd->add_option("--kill-at", args->kill_at_h,
-                  "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
-                  "time, leaving the history as a crash would");
+  add_number_option(cmd, "--kill-at", args->kill_at_h,
+                    "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
+                    "time, leaving the history as a crash would",
+                    0.0, kMaxHours);
   cmd->add_option("--baselines", args->baselines,
                   "The seeds' static models beside ALC, fitted once on the CP measurements and evaluated on the "
                   "same rows: a comma-separated list of mlr, lasso, svr, gm, ols, or all (docs/baselines.md); "

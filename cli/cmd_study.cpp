@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
+#include "common/number_text.hpp"
 #include "runtime/parameter_options.hpp"
 #include "runtime/replay.hpp"
 #include "runtime/report_json.hpp"
@@ -68,17 +69,15 @@ struct ReportArgs {
 
 std::string version() { return std::string("alc ") + ALC_VERSION; }
 
-// "I/N" with 1 <= I <= N, decimal digits only.
+// "I/N" with 1 <= I <= N, decimal digits only (common::parse_whole_number).
 std::pair<int, int> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
-  const auto digits = [](const std::string& t) {
-    return !t.empty() && t.size() < 7 && t.find_first_not_of("0123456789") == std::string::npos;
-  };
   if (slash != std::string::npos) {
-    const std::string i = text.substr(0, slash), n = text.substr(slash + 1);
-    if (digits(i) && digits(n)) {
-      const int a = std::stoi(i), b = std::stoi(n);
-      if (a >= 1 && a <= b) return {a, b};
+    try {
+      const auto n = common::parse_whole_number("--shard", text.substr(slash + 1), 1, 999999);
+      const auto i = common::parse_whole_number("--shard", text.substr(0, slash), 1, n);
+      return {static_cast<int>(i), static_cast<int>(n)};
+    } catch (const std::invalid_argument&) {
     }
   }
   throw UsageError("--shard: '" + text + "' is not I/N with 1 <= I <= N (e.g. 3/8)");
@@ -414,7 +413,7 @@ void add_study_command(CLI::App& app) {
   cmd->add_option("--grid", args->grid, "paper (Tab. 1 of seed 004: 2,191 sets) or a TOML grid file");
   cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, H1-H5, all (A-D) or heldout (H1-H5)");
   cmd->add_option("files", args->files, "Scenario CSV files (instead of --case)");
-  cmd->add_option("--jobs", args->jobs, "Worker threads (default 0: every core)");
+  add_whole_option(cmd, "--jobs", args->jobs, "Worker threads (default 0: every core)", 0, 4096);
   cmd->add_option("--db", args->db, "Store the rows in this SQLite file as they finish (needed for --resume)");
   cmd->add_option("--csv", args->csv, "Write the rows to this CSV file (one per set and case)");
   cmd->add_flag("--json", args->json, "Print the analysis as JSON");
@@ -423,8 +422,8 @@ void add_study_command(CLI::App& app) {
   cmd->add_flag("--bench", args->bench,
                 "Benchmark: the grid with shared work, then a random sample as independent replays; prints runs/s, "
                 "work saved, peak RSS and the ratio");
-  cmd->add_option("--bench-sample", args->bench_sample, "Independent replays of the benchmark's baseline")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+  add_whole_option(cmd, "--bench-sample", args->bench_sample, "Independent replays of the benchmark's baseline", 1,
+                   100000000);
   cmd->add_option_function<std::string>("--bench-seed", [args](const std::string& s) { args->bench_seed = parse_seed(s); },
                                         "Seed of the benchmark's sample (default 1)");
   cmd->add_flag("--quiet", args->quiet, "No progress on stderr");

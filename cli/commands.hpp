@@ -50,6 +50,25 @@ std::uint64_t parse_seed(const std::string& text);
 void add_supervise_command(CLI::App& app);
 // alc report: a history (or study file) as one self-contained HTML page (cli/cmd_report.cpp).
 void add_report_command(CLI::App& app);
+// Numeric options, every one through the one strict reader of number text (common::parse_number,
+// common::parse_whole_number; cli/cases.cpp): no sign, hex, nan, blank or trailing text; a value
+// outside lo…hi or not a number is a UsageError (exit 2) naming the option and the value.
+// `target` must outlive the parse (a member of the command's shared argument struct).
+CLI::Option* add_number_option(CLI::App* cmd, const std::string& name, double& target, const std::string& help,
+                               double lo, double hi, bool allow_inf = false);
+// The value of a whole-number option, lo…hi (common::parse_whole_number); throws UsageError.
+std::uint64_t whole_option_value(const std::string& name, const std::string& text, std::uint64_t lo, std::uint64_t hi);
+template <class Int>
+CLI::Option* add_whole_option(CLI::App* cmd, const std::string& name, Int& target, const std::string& help,
+                              std::uint64_t lo, std::uint64_t hi) {
+  return cmd
+      ->add_option_function<std::string>(
+          name, [&target, name, lo, hi](const std::string& text) {
+            target = static_cast<Int>(whole_option_value(name, text, lo, hi));
+          },
+          help)
+      ->default_str(std::to_string(target));
+}
 
 // alc bench: replay speed, identification share, cost of the history (cli/cmd_bench.cpp).
 void add_bench_command(CLI::App& app);

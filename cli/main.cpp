@@ -1,6 +1,8 @@
 // alc: adaptive learning control of thermal errors of a 5-axis machine's rotary axis.
 #include <cstddef>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -8,7 +10,19 @@
 #include "commands.hpp"
 #include "common/log.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+// A result that did not reach its reader is a failure: stdout is flushed and checked once, at exit
+// (a full disk, /dev/full, a closed pipe). `code` stays if it already says failure.
+int checked_stdout(int code) {
+  std::cout.flush();
+  const bool failed = !std::cout || std::fflush(stdout) != 0 || std::ferror(stdout);
+  if (!failed) return code;
+  std::cerr << "alc: error: writing to stdout failed: " << std::strerror(errno) << "\n";
+  return code == 0 ? 1 : code;
+}
+
+int run(int argc, char** argv) {
   CLI::App app{"alc: adaptive learning control of thermal errors of a 5-axis machine tool's rotary axis.\n"
                "Predicts the thermal location errors of the C axis from temperatures and machine states "
                "(ARX), schedules touch-probe measurements, and turns predictions into NC axis offsets."};
@@ -23,9 +37,10 @@ int main(int argc, char** argv) {
   app.add_option("--log-file", log_options.file,
                  "Also log to FILE (rotating: FILE, FILE.1, ...); its directory must exist")
       ->option_text("FILE");
-  app.add_option("--log-max-bytes", log_options.max_file_bytes, "Size at which the log file rotates (default: 10 MiB)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--log-max-files", log_options.max_files, "Rotated log files kept besides FILE (default: 5)");
+  alc::cli::add_whole_option(&app, "--log-max-bytes", log_options.max_file_bytes,
+                             "Size at which the log file rotates (default: 10 MiB)", 1, std::uint64_t{1} << 50);
+  alc::cli::add_whole_option(&app, "--log-max-files", log_options.max_files,
+                             "Rotated log files kept besides FILE (default: 5)", 0, 200000);
   // Runs once the options are parsed and before the command's callback.
   app.parse_complete_callback([&] {
     const auto level = alc::log::parse_level(log_level);
@@ -66,3 +81,7 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace
+
+int main(int argc, char** argv) { return checked_stdout(run(argc, argv)); }

@@ -9,6 +9,9 @@ ALC_JOBS="${ALC_JOBS:-$(nproc)}"
 ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsqlite3-dev sqlite3 libspdlog-dev
               catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev libsvm-dev)
 
+# The fuzz build (fuzz/, README "Fuzzing"): clang with libFuzzer and its sanitizer runtimes.
+ALC_FUZZ_PACKAGES=(clang libclang-rt-14-dev)
+
 # ensure_packages PKG...: apt-get install the ones that are not installed yet.
 ensure_packages() {
   local missing=()
@@ -48,4 +51,10 @@ build() {
     return 1
   fi
   grep -A3 "warning:" "$dir/build.log" >&2 || true  # warnings stay visible
+}
+
+# build_fuzz: the fuzz configuration in build/fuzz (its own CMake configuration: clang, -DALC_FUZZ=ON;
+# only the libraries and the fuzz targets).
+build_fuzz() {
+  CC=clang CXX=clang++ build "$ALC_ROOT/build/fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DALC_FUZZ=ON
 }

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The whole test suite: a release build and an ASan+UBSan build, each run through CTest.
+# The whole test suite: a release build and an ASan+UBSan build, each run through CTest, then the
+# libFuzzer targets for a short run each (their own clang build, build/fuzz).
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 ensure_packages "${ALC_PACKAGES[@]}"
 # LinuxCNC (rs274 and the headless simulator) for the nc_interface tests; large, so only here.
@@ -11,10 +12,15 @@ ensure_packages mosquitto
 ensure_packages slurmctld slurmd slurm-client munge
 # Chromium for the report's browser tests (tests/report/browser_test.cpp: headless, on a local file).
 ensure_packages chromium
+ensure_packages "${ALC_FUZZ_PACKAGES[@]}"
 status=0
 build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release
 ctest --no-tests=error --test-dir "$ALC_ROOT/build/test-release" -j "$ALC_JOBS" --output-on-failure || status=1
 build "$ALC_ROOT/build/test-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DALC_SANITIZE=ON
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --no-tests=error --test-dir "$ALC_ROOT/build/test-asan" -j "$ALC_JOBS" --output-on-failure || status=1
+# The fuzzers: a short fixed number of executions per target (label fuzz); scripts/fuzz.sh --long
+# runs them for 10^6 each.
+build_fuzz
+ctest --no-tests=error --test-dir "$ALC_ROOT/build/fuzz" -L fuzz -j "$ALC_JOBS" --output-on-failure || status=1
 exit $status

@@ -1,6 +1,7 @@
 #include "common/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -86,9 +87,27 @@ void sync_directory(const std::filesystem::path& path) {
   ::close(fd);
 }
 
+// What `path` names if it is there and the rename must not replace it: a symbolic link (the rename
+// would put a regular file in place of the link, not write where it points), a directory, a device
+// node, a pipe, a socket. Empty for a regular file or a new path.
+std::string not_replaceable(const std::filesystem::path& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return {};  // a new path (or one the create below reports)
+  if (S_ISREG(st.st_mode)) return {};
+  if (S_ISLNK(st.st_mode)) return "a symbolic link";
+  if (S_ISDIR(st.st_mode)) return "a directory";
+  if (S_ISCHR(st.st_mode)) return "a character device";
+  if (S_ISBLK(st.st_mode)) return "a block device";
+  if (S_ISFIFO(st.st_mode)) return "a pipe";
+  return "a socket or another special file";
+}
+
 }  // namespace
 
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
+  if (const std::string what = not_replaceable(path); !what.empty())
+    throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what +
+                             ", not a regular file; give a regular file or a new path");
   std::filesystem::path temporary;
   int fd = create_temporary(path, temporary);
   // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.

@@ -1,5 +1,6 @@
 #include "common/byte_codec.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <limits>
 #include <stdexcept>
@@ -122,7 +123,11 @@ Eigen::MatrixXd ByteReader::matrix(std::string_view field) {
   const std::size_t at = position_;
   const std::uint64_t rows = u64(field);
   const std::uint64_t cols = u64(field);
-  const bool fits = (rows == 0 || cols == 0) || (cols <= remaining() / 8 / rows);
+  // An empty matrix holds no bytes to vouch for its other dimension: that one is bounded instead
+  // (a 0 x 2^62 matrix would take ages to walk; found by fuzz/run_state_fuzz.cpp).
+  constexpr std::uint64_t kMaxEmptyDimension = std::uint64_t{1} << 20;
+  const bool fits = (rows == 0 || cols == 0) ? std::max(rows, cols) <= kMaxEmptyDimension
+                                             : cols <= remaining() / 8 / rows;
   if (!fits || rows > static_cast<std::uint64_t>(std::numeric_limits<Eigen::Index>::max()) ||
       cols > static_cast<std::uint64_t>(std::numeric_limits<Eigen::Index>::max()))
     fail("corrupt: " + std::string(field) + " at byte " + std::to_string(at) + " claims " + std::to_string(rows) +

@@ -15,14 +15,16 @@ struct AxisWord {
   double value;  // [mm] or [°]
 };
 
-// The axis words of an offset command, in X Y Z A B C order; absent rotary axes are left out.
+// The axis words of an offset command, in X Y Z A B C order; absent rotary axes are left out (the NC
+// keeps their value). A base is added as printed (with_base).
 std::vector<AxisWord> axis_words(const AxisOffsets& o, const BaseOffset* base) {
   const BaseOffset zero{};
   const BaseOffset& b = base ? *base : zero;
-  std::vector<AxisWord> words{{'X', b.x_mm + o.x_mm}, {'Y', b.y_mm + o.y_mm}, {'Z', b.z_mm + o.z_mm}};
-  if (o.a_deg) words.push_back({'A', b.a_deg + *o.a_deg});
-  if (o.b_deg) words.push_back({'B', b.b_deg + *o.b_deg});
-  words.push_back({'C', b.c_deg + o.c_deg});
+  std::vector<AxisWord> words{{'X', with_base(b.x_mm, o.x_mm)}, {'Y', with_base(b.y_mm, o.y_mm)},
+                              {'Z', with_base(b.z_mm, o.z_mm)}};
+  if (o.a_deg) words.push_back({'A', with_base(b.a_deg, *o.a_deg)});
+  if (o.b_deg) words.push_back({'B', with_base(b.b_deg, *o.b_deg)});
+  words.push_back({'C', with_base(b.c_deg, o.c_deg)});
   return words;
 }
 

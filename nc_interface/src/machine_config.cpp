@@ -5,6 +5,8 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "common/input_file.hpp"
+
 namespace alc::nc {
 namespace {
 
@@ -164,7 +166,8 @@ void read_limits(Table t, SafetyLimits& l) {
 }  // namespace
 
 ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_)
-    : std::runtime_error(file_ + ": key '" + key_ + "': " + reason_ + ": value '" + value_ + "'"),
+    : std::runtime_error(key_.empty() ? file_ + ": " + reason_  // the file itself, not a key
+                                      : file_ + ": key '" + key_ + "': " + reason_ + ": value '" + value_ + "'"),
       file(std::move(file_)), key(std::move(key_)), value(std::move(value_)), reason(reason_) {}
 
 MachineConfig parse_machine_config(const std::string& toml_text, const std::string& source_name) {
@@ -186,6 +189,8 @@ MachineConfig parse_machine_config(const std::string& toml_text, const std::stri
 }
 
 MachineConfig read_machine_config(const std::filesystem::path& path) {
+  if (const std::string problem = io::input_file_problem(path); !problem.empty())
+    throw ConfigError(path.string(), "", "", problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path.string(), "", "", "cannot open the file");
   std::ostringstream text;

@@ -9,7 +9,7 @@
 
 namespace alc::nc {
 
-std::string format_nc_number(double value, SignStyle sign) {
+long long nc_ticks(double value) {
   if (!std::isfinite(value) || std::abs(value) > kMaxNcMagnitude) {
     char text[64];
     std::snprintf(text, sizeof text, "%g", value);
@@ -28,7 +28,18 @@ std::string format_nc_number(double value, SignStyle sign) {
   for (char ch : whole) magnitude = magnitude * 10 + (ch - '0');
   for (std::size_t i = 0; i < 4; ++i) magnitude = magnitude * 10 + (i < fraction.size() ? fraction[i] - '0' : 0);
   if (fraction.size() > 4 && fraction[4] >= '5') ++magnitude;  // half away from zero
-  const long long ticks = value < 0.0 ? -magnitude : magnitude;
+  return value < 0.0 ? -magnitude : magnitude;
+}
+
+double as_printed(double value) { return static_cast<double>(nc_ticks(value)) / kNcTicksPerUnit; }
+
+double with_base(double base, double offset) {
+  return static_cast<double>(nc_ticks(base) + nc_ticks(offset)) / kNcTicksPerUnit;
+}
+
+std::string format_nc_number(double value, SignStyle sign) {
+  const long long ticks = nc_ticks(value);
+  const long long magnitude = ticks < 0 ? -ticks : ticks;
   std::string out;
   if (ticks < 0) out = "-";
   else if (sign == SignStyle::Always) out = "+";

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "common/number_text.hpp"
 #include "nc_interface/nc_number.hpp"
 
 namespace alc::nc {
@@ -27,13 +28,10 @@ std::vector<AxisValue> axes(const SafetyLimits& l, const AxisOffsets& o) {
   return v;
 }
 
-std::optional<double> blend(const std::optional<double>& from, const std::optional<double>& to, double f) {
-  if (!to) return std::nullopt;
-  return from.value_or(0.0) + (*to - from.value_or(0.0)) * f;
-}
-
+// A value as the NC would print it; a limit that is not a multiple of the resolution in full.
 std::string show(double v) {
-  return std::isfinite(v) && std::abs(v) <= kMaxNcMagnitude ? format_nc_number(v) : std::to_string(v);
+  if (!std::isfinite(v) || std::abs(v) > kMaxNcMagnitude) return common::shortest_text(v);
+  return as_printed(v) == v ? format_nc_number(v) : common::shortest_text(v);
 }
 
 // "G55", or "work offset N" for a number outside G54…G59 (the gate itself does not validate).
@@ -66,40 +64,97 @@ std::string_view verdict_name(SafetyVerdict verdict) {
   return "?";
 }
 
+namespace {
+
+// The offsets the NC holds after `requested` is written on top of `current`: each value as printed
+// (as_printed), and an optional axis that `requested` leaves out keeps its value (no word is
+// written for it, so the NC keeps what it had).
+AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& requested) {
+  AxisOffsets h = requested;
+  h.x_mm = as_printed(requested.x_mm);
+  h.y_mm = as_printed(requested.y_mm);
+  h.z_mm = as_printed(requested.z_mm);
+  h.a_deg = requested.a_deg ? std::optional<double>(as_printed(*requested.a_deg)) : current.a_deg;
+  h.b_deg = requested.b_deg ? std::optional<double>(as_printed(*requested.b_deg)) : current.b_deg;
+  h.c_deg = as_printed(requested.c_deg);
+  return h;
+}
+
+bool printable(const AxisOffsets& o) {
+  for (const std::optional<double>& v : {std::optional<double>(o.x_mm), std::optional<double>(o.y_mm),
+                                         std::optional<double>(o.z_mm), o.a_deg, o.b_deg, std::optional<double>(o.c_deg)})
+    if (v && (!std::isfinite(*v) || std::abs(*v) > kMaxNcMagnitude)) return false;
+  return true;
+}
+
+// The largest number of NC ticks (0.0001) whose value is within `limit`.
+long long ticks_within(double limit) {
+  auto t = static_cast<long long>(std::floor(limit * kNcTicksPerUnit + 1e-6));
+  while (t > 0 && static_cast<double>(t) / kNcTicksPerUnit > limit) --t;
+  return t;
+}
+
+// from + (to - from) * k / n in ticks, truncated towards from: consecutive k differ by at most
+// ceil(|to - from| / n) ticks.
+double tick_between(double from, double to, int k, int n) {
+  const long long a = nc_ticks(from), d = nc_ticks(to) - a;
+  const long long part = (d < 0 ? -d : d) * k / n;
+  return static_cast<double>(a + (d < 0 ? -part : part)) / kNcTicksPerUnit;
+}
+
+}  // namespace
+
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested) {
   SafetyDecision d;
   d.requested = requested;
-  const auto want = axes(limits, requested);
-  const auto now = axes(limits, current);
+  if (!printable(requested) || !printable(current)) {
+    d.verdict = SafetyVerdict::Refused;
+    d.message = "refused; an offset is not finite or beyond ±1e6, which the NC cannot be given";
+    return d;
+  }
+  // Judged: what the NC holds now and after the command, per axis, as printed.
+  const AxisOffsets now_held = held_after(current, current);
+  const AxisOffsets then_held = held_after(now_held, requested);
+  const auto want = axes(limits, then_held);
+  const auto now = axes(limits, now_held);
   bool offset_broken = false;
-  double worst_ratio = 0.0;  // largest |change| / max_step
+  bool unsplittable = false;  // a change on an axis whose max_step is below the NC resolution
+  int steps = 1;
   for (std::size_t i = 0; i < want.size(); ++i) {
     const AxisValue& a = want[i];
     if (std::abs(a.value) > a.max_offset) {
       d.violations.push_back({a.axis, "max_offset", a.value, a.max_offset});
       offset_broken = true;
     }
-    const double change = a.value - now[i].value;
+    const long long change_ticks = nc_ticks(a.value) - nc_ticks(now[i].value);
+    const double change = static_cast<double>(change_ticks) / kNcTicksPerUnit;
     if (std::abs(change) > a.max_step) d.violations.push_back({a.axis, "max_step", change, a.max_step});
-    worst_ratio = std::max(worst_ratio, std::abs(change) / a.max_step);
+    if (change_ticks == 0) continue;
+    const long long per_step = ticks_within(a.max_step);
+    if (per_step == 0) {
+      unsplittable = true;
+      continue;
+    }
+    const long long magnitude = change_ticks < 0 ? -change_ticks : change_ticks;
+    steps = static_cast<int>(std::min<long long>(std::max<long long>(steps, (magnitude + per_step - 1) / per_step), 1000000));
   }
-  // Steps of exactly max_step count as within the limit; 1e-9 absorbs the division's rounding.
-  const int steps = std::max(1, static_cast<int>(std::ceil(worst_ratio - 1e-9)));
   if (d.violations.empty()) {
     d.verdict = SafetyVerdict::Accepted;
     d.to_send = {requested};
-  } else if (!offset_broken && limits.on_step_violation == StepAction::Split && steps <= limits.max_split_steps) {
+  } else if (!offset_broken && !unsplittable && limits.on_step_violation == StepAction::Split &&
+             steps <= limits.max_split_steps) {
     d.verdict = SafetyVerdict::Split;
+    // Every step as printed, so that each printed change is within max_step; an axis the request
+    // leaves out stays out (the NC keeps it).
     for (int k = 1; k <= steps; ++k) {
-      const double f = static_cast<double>(k) / steps;
       AxisOffsets s = requested;
-      s.x_mm = current.x_mm + (requested.x_mm - current.x_mm) * f;
-      s.y_mm = current.y_mm + (requested.y_mm - current.y_mm) * f;
-      s.z_mm = current.z_mm + (requested.z_mm - current.z_mm) * f;
-      s.a_deg = blend(current.a_deg, requested.a_deg, f);
-      s.b_deg = blend(current.b_deg, requested.b_deg, f);
-      s.c_deg = current.c_deg + (requested.c_deg - current.c_deg) * f;
-      d.to_send.push_back(k == steps ? requested : s);
+      s.x_mm = tick_between(now_held.x_mm, then_held.x_mm, k, steps);
+      s.y_mm = tick_between(now_held.y_mm, then_held.y_mm, k, steps);
+      s.z_mm = tick_between(now_held.z_mm, then_held.z_mm, k, steps);
+      if (requested.a_deg) s.a_deg = tick_between(now_held.a_deg.value_or(0.0), *then_held.a_deg, k, steps);
+      if (requested.b_deg) s.b_deg = tick_between(now_held.b_deg.value_or(0.0), *then_held.b_deg, k, steps);
+      s.c_deg = tick_between(now_held.c_deg, then_held.c_deg, k, steps);
+      d.to_send.push_back(s);
     }
   } else {
     d.verdict = SafetyVerdict::Refused;
@@ -107,8 +162,9 @@ SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& curr
   d.message = std::string(verdict_name(d.verdict));
   if (d.verdict == SafetyVerdict::Split) d.message += " into " + std::to_string(d.to_send.size()) + " steps";
   if (d.verdict == SafetyVerdict::Refused && !offset_broken && limits.on_step_violation == StepAction::Split)
-    d.message += " (would need " + std::to_string(steps) + " steps, max_split_steps " +
-                 std::to_string(limits.max_split_steps) + ")";
+    d.message += unsplittable ? std::string(" (max_step is below the NC resolution 0.0001)")
+                              : " (would need " + std::to_string(steps) + " steps, max_split_steps " +
+                                    std::to_string(limits.max_split_steps) + ")";
   for (const LimitViolation& v : d.violations) {
     const char* unit = (v.axis == 'X' || v.axis == 'Y' || v.axis == 'Z') ? " mm" : " deg";
     d.message += std::string("; axis ") + v.axis + (v.limit == "max_offset" ? " offset " : " change ") +
@@ -148,7 +204,8 @@ SafetyDecision SafetyGate::submit(const AxisOffsets& requested) {
   if (d.verdict != SafetyVerdict::Accepted && from.work_offset != requested.work_offset)
     d.message += "; judged against the offsets of " + name_of(from.work_offset) +
                  " (one offset register for every work offset)";
-  if (d.verdict != SafetyVerdict::Refused) current_[register_of(requested.work_offset)] = requested;
+  // What the NC holds afterwards: the values as printed, an axis left out keeps its value.
+  if (d.verdict != SafetyVerdict::Refused) current_[register_of(requested.work_offset)] = held_after(from, requested);
   return d;
 }
 

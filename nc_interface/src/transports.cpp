@@ -266,9 +266,9 @@ void LinuxcncrshSink::deliver(const NcCommand& command) {
     throw;
   }
   const BaseOffset& b = nc_.base[static_cast<std::size_t>(o->work_offset - 1)];
-  const std::array<double, 6> want{b.x_mm + o->x_mm, b.y_mm + o->y_mm, b.z_mm + o->z_mm,
-                                   b.a_deg + o->a_deg.value_or(0.0), b.b_deg + o->b_deg.value_or(0.0),
-                                   b.c_deg + o->c_deg};
+  const std::array<double, 6> want{with_base(b.x_mm, o->x_mm), with_base(b.y_mm, o->y_mm),
+                                   with_base(b.z_mm, o->z_mm), with_base(b.a_deg, o->a_deg.value_or(0.0)),
+                                   with_base(b.b_deg, o->b_deg.value_or(0.0)), with_base(b.c_deg, o->c_deg)};
   static constexpr char kAxes[] = "XYZABC";
   for (std::size_t i = 0; i < 6; ++i) {
     if (i == 3 && !o->a_deg) continue;

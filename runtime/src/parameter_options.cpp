@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "common/number_text.hpp"
+
 namespace alc::runtime {
 
 namespace {
@@ -61,27 +63,11 @@ const ParameterOption* find_parameter_option(std::string_view name) {
   return nullptr;
 }
 
-double parse_number(std::string_view what, std::string_view text, bool allow_inf) {
-  const std::string_view values = allow_inf ? kNumberOrInf : kNumber;
-  if (text == "inf" || text == "Inf") {
-    if (allow_inf) return kInf;
-    refuse(what, text, values);
-  }
-  // from_chars alone would take "nan", "inf", "infinity" and, after a sign, negatives: digits first.
-  if (text.empty() || !(std::isdigit(static_cast<unsigned char>(text.front())) || text.front() == '.'))
-    refuse(what, text, values);
-  double v = 0.0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, v, std::chars_format::general);
-  if (ec != std::errc() || ptr != end || !std::isfinite(v)) refuse(what, text, values);
-  return v;
-}
-
 void set_parameter(AlcParameters& p, std::string_view name, std::string_view text) {
   const ParameterOption* o = find_parameter_option(name);
   if (!o) throw std::invalid_argument("'" + std::string(name) + "' is not a parameter option");
-  const auto number = [&](double scale) { return parse_number(name, text, false) * scale; };
-  const auto number_or_inf = [&](double scale) { return parse_number(name, text, true) * scale; };
+  const auto number = [&](double scale) { return common::parse_number(name, text, false) * scale; };
+  const auto number_or_inf = [&](double scale) { return common::parse_number(name, text, true) * scale; };
   if (name == "cp") p.cp_duration_s = number(3600.0);
   else if (name == "cp-interval") p.cp_interval_s = number(60.0);
   else if (name == "interval") p.post_cp_interval_s = number_or_inf(3600.0);

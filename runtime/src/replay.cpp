@@ -5,6 +5,7 @@
 #include "runtime/history_recorder.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
+#include "storage/storage_error.hpp"
 
 namespace alc::runtime {
 
@@ -29,8 +30,14 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
   if (machine) driver_.set_machine({options_.machine.chain, {}});
   if (!options_.db.empty()) {
     storage::WriterOptions w;
-    w.create_directories = true;
-    writer_ = std::make_unique<storage::HistoryWriter>(options_.db, w);
+    w.create_directories = !options_.resume;
+    w.must_exist = options_.resume;  // a resume never creates or initialises a history
+    try {
+      writer_ = std::make_unique<storage::HistoryWriter>(options_.db, w);
+    } catch (const storage::StorageError& e) {
+      if (e.kind == storage::StorageErrorKind::NotFound && options_.resume) throw ResumeRefused(e.what());
+      throw;
+    }
     const storage::RunRecord record = run_record();
     if (options_.resume) {
       lifecycle_ = std::make_unique<RunLifecycle>(*writer_, options_.db, record, options_.snapshot_every_s,

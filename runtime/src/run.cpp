@@ -5,6 +5,7 @@
 #include "common/log.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
+#include "storage/storage_error.hpp"
 
 namespace alc::runtime {
 
@@ -77,15 +78,34 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
         (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
       found = r;
   if (!found) throw ResumeRefused(db.string() + ": no unfinished run of '" + record.source + "' to resume");
+  // Another recording under the same name: say so (both content hashes) rather than "other parameters".
+  const auto hash_of = [](const std::string& config) {
+    const auto j = nlohmann::json::parse(config, nullptr, false);
+    return j.is_object() && j.contains("scenario_hash") && j["scenario_hash"].is_string()
+               ? j["scenario_hash"].get<std::string>()
+               : std::string();
+  };
+  if (const std::string stored = hash_of(found->config_json), given = hash_of(record.config_json); stored != given)
+    throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
+                        "' was recorded from other data: content hash " + (stored.empty() ? "(none)" : stored) +
+                        " stored, " + (given.empty() ? "(none)" : given) + " given (another recording under the same name?)");
   if (found->config_json != record.config_json)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
                         "' was started with other parameters: " + found->config_json + "; given: " +
                         record.config_json);
   run_ = found->run_id;
-  const storage::ResumePoint point = writer_.resume_run(run_);
-  if (point.snapshot.format != kRunStateFormat)
-    throw ResumeRefused(db.string() + ": run " + std::to_string(run_) + " has a snapshot of format '" +
-                        point.snapshot.format + "', this program resumes " + kRunStateFormat);
+  // The latest snapshot that decodes (format, checksum): a damaged later one is named and skipped, a
+  // run without any usable snapshot is refused unchanged.
+  storage::ResumePoint point;
+  try {
+    point = writer_.resume_run(run_, run_state_problem);
+  } catch (const storage::StorageError& e) {
+    if (e.kind != storage::StorageErrorKind::Corrupt) throw;
+    throw ResumeRefused(e.what());
+  }
+  for (const std::string& skipped : point.skipped)
+    log::get("runtime")->warn("{}: run {}: {}; resuming from the latest good one, snapshot {} at t = {} s", db.string(),
+                              run_, skipped, point.snapshot.snapshot_id, point.snapshot.time_s);
   resumed_from_ = point.snapshot;
   log::get("runtime")->info("run {} of '{}' resumed from its snapshot at t = {} s (sample {})", run_, record.source,
                             point.snapshot.time_s, point.snapshot.next_sample_index);

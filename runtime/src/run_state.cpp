@@ -150,6 +150,17 @@ RunState decode_run_state(const std::string& payload) {
   return s;
 }
 
+std::string run_state_problem(const storage::ControllerSnapshot& snapshot) {
+  if (snapshot.format != kRunStateFormat)
+    return "format '" + snapshot.format + "', this program resumes " + kRunStateFormat;
+  try {
+    decode_run_state(snapshot.payload);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return {};
+}
+
 std::int64_t history_rows(const ControllerState& state) { return state.samples - state.history_first_index; }
 
 void restore_history(ControllerState& state, std::vector<double> time_s, InputMatrix inputs) {

@@ -12,6 +12,7 @@
 
 #include "alc/error_kind.hpp"
 #include "common/atomic_file.hpp"
+#include "common/input_file.hpp"
 #include "common/number_text.hpp"
 
 namespace alc::scenarios {
@@ -31,6 +32,58 @@ std::string shorten(const std::string& text, std::size_t max = 60) {
   std::size_t cut = max;
   while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
   return text.substr(0, cut) + "…";
+}
+
+// The length of the well-formed UTF-8 sequence at text[i] (1…4), or 0 if it is not one (a stray
+// continuation byte, a truncated or overlong sequence, a surrogate, beyond U+10FFFF).
+std::size_t utf8_length(std::string_view text, std::size_t i) {
+  const auto byte = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
+  const unsigned b0 = byte(i);
+  if (b0 < 0x80) return 1;
+  std::size_t n = 0;
+  unsigned lo = 0x80, hi = 0xBF;  // allowed range of the second byte
+  if (b0 >= 0xC2 && b0 <= 0xDF) n = 2;
+  else if (b0 == 0xE0) n = 3, lo = 0xA0;
+  else if (b0 >= 0xE1 && b0 <= 0xEC) n = 3;
+  else if (b0 == 0xED) n = 3, hi = 0x9F;
+  else if (b0 >= 0xEE && b0 <= 0xEF) n = 3;
+  else if (b0 == 0xF0) n = 4, lo = 0x90;
+  else if (b0 >= 0xF1 && b0 <= 0xF3) n = 4;
+  else if (b0 == 0xF4) n = 4, hi = 0x8F;
+  else return 0;
+  if (byte(i + 1) < lo || byte(i + 1) > hi) return 0;
+  for (std::size_t k = 2; k < n; ++k)
+    if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return 0;
+  return n;
+}
+
+// The byte offset of the first byte that is not well-formed UTF-8, or npos.
+std::size_t invalid_utf8_at(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t n = utf8_length(text, i);
+    if (n == 0) return i;
+    i += n;
+  }
+  return std::string_view::npos;
+}
+
+// `text` with every byte that is not well-formed UTF-8 shown as \xNN (for messages).
+std::string escape_invalid_utf8(std::string_view text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t n = utf8_length(text, i);
+    if (n > 0) {
+      out.append(text.substr(i, n));
+      i += n;
+    } else {
+      static const char* const kHex = "0123456789ABCDEF";
+      const auto b = static_cast<unsigned char>(text[i++]);
+      out += "\\x";
+      out += kHex[b >> 4];
+      out += kHex[b & 15];
+    }
+  }
+  return out;
 }
 
 std::string compose(const std::string& file, std::size_t line, std::size_t column,
@@ -134,6 +187,10 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
     header[c] = unquote(header[c]);
     const std::string& name = header[c];
     if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", header_text, "empty column name in header");
+    // Names go into JSON (reports, the history's run record): refuse what is not UTF-8 here.
+    if (const std::size_t at = invalid_utf8_at(name); at != std::string::npos)
+      throw ScenarioCsvError(source, header_line, c + 1, "", escape_invalid_utf8(name),
+                             "column name is not UTF-8 (byte " + std::to_string(at + 1) + ")");
     if (!seen.insert(name).second) {
       std::size_t first = 0;
       while (header[first] != name) ++first;
@@ -215,17 +272,6 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
   return s;
 }
 
-const char* file_type_name(std::filesystem::file_type type) {
-  switch (type) {
-    case std::filesystem::file_type::directory: return "a directory";
-    case std::filesystem::file_type::fifo: return "a pipe";
-    case std::filesystem::file_type::character: return "a character device";
-    case std::filesystem::file_type::block: return "a block device";
-    case std::filesystem::file_type::socket: return "a socket";
-    default: return "not a file";
-  }
-}
-
 constexpr const char* kEmptyFile = "the file is empty (no header line)";
 
 }  // namespace
@@ -237,11 +283,10 @@ Scenario read_scenario_csv(const std::filesystem::path& path) {
   // character device (/dev/stdin, a shell's <(...)) is read like a file.
   std::error_code ec;
   const auto type = std::filesystem::status(path, ec).type();
-  const bool exists = !ec && type != std::filesystem::file_type::not_found;
   const bool regular = type == std::filesystem::file_type::regular;
-  const bool stream = type == std::filesystem::file_type::fifo || type == std::filesystem::file_type::character;
-  const std::string not_regular = std::string("not a regular file (") + file_type_name(type) + ")";
-  if (exists && !regular && !stream) throw ScenarioCsvError(path.string(), 0, 0, "", "", not_regular);
+  if (const std::string problem = io::input_file_problem(path); !problem.empty())
+    throw ScenarioCsvError(path.string(), 0, 0, "", "", problem);
+  const std::string not_regular = std::string("not a regular file (") + io::file_type_name(type) + ")";
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ScenarioCsvError(path.string(), 0, 0, "", "", "cannot open file for reading");
   return parse_csv(in, path.string(), regular ? std::string(kEmptyFile) : not_regular + " and nothing could be read from it");

@@ -2,6 +2,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "record_io.hpp"
 #include "sqlite_db.hpp"
 #include "storage/history_tools.hpp"
 #include "storage/storage_error.hpp"
@@ -31,7 +32,7 @@ void report_rows(Database& db, std::string_view sql, const std::string& label, C
 
 }  // namespace
 
-CheckReport check_history(const std::filesystem::path& path) {
+CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck& snapshot_check) {
   CheckReport report;
   int version = 0;
   auto db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, version);
@@ -120,13 +121,16 @@ CheckReport check_history(const std::filesystem::path& path) {
     report_rows(*db, "SELECT run_id, nc_command_id FROM nc_commands WHERE accepted = 0 AND delivered IS NOT NULL",
                 "nc_commands: delivered set on a command the safety gate refused (run, nc_command_id)", report);
   {
-    Statement st(*db, "SELECT snapshot_id, run_id, format, is_json, payload, next_sample_index FROM controller_snapshots");
+    Statement st(*db, std::string("SELECT ") + detail::kSnapshotColumns + " FROM controller_snapshots");
     while (st.step()) {
-      const std::string which = "controller_snapshots: snapshot " + st.column_text(0) + " of run " + st.column_text(1);
-      if (st.column_text(2).empty()) report.problems.push_back(which + " has no format");
-      if (st.column_int(3) != 0 && !nlohmann::json::accept(st.column_blob(4)))
-        report.problems.push_back(which + ": JSON payload does not parse");
-      if (st.column_int(5) < 0) report.problems.push_back(which + ": negative next_sample_index");
+      const ControllerSnapshot s = detail::read_snapshot(st);
+      const std::string which =
+          "controller_snapshots: snapshot " + std::to_string(s.snapshot_id) + " of run " + std::to_string(s.run_id);
+      if (s.format.empty()) report.problems.push_back(which + " has no format");
+      if (s.is_json && !nlohmann::json::accept(s.payload)) report.problems.push_back(which + ": JSON payload does not parse");
+      if (s.next_sample_index < 0) report.problems.push_back(which + ": negative next_sample_index");
+      if (snapshot_check)
+        if (const std::string why = snapshot_check(s); !why.empty()) report.problems.push_back(which + ": " + why);
     }
   }
   return report;

@@ -196,6 +196,17 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
   impl_->file = path;
   if (const std::string problem = options.validate(); !problem.empty())
     throw StorageError(StorageErrorKind::InvalidArgument, path, "writer options: " + problem);
+  if (options.must_exist) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);  // follows a symbolic link
+    if (!std::filesystem::exists(status))
+      throw StorageError(StorageErrorKind::NotFound, path,
+                         std::filesystem::is_symlink(std::filesystem::symlink_status(path, ec))
+                             ? "no history to resume: a symbolic link to nothing"
+                             : "no history to resume: the file does not exist");
+    if (std::filesystem::is_regular_file(status) && std::filesystem::file_size(path, ec) == 0 && !ec)
+      throw StorageError(StorageErrorKind::NotFound, path, "no history to resume: the file is empty");
+  }
   impl_->db = detail::open_for_writing(path, options);
   impl_->prepare();
   alc::log::get("storage")->info("opened history {} for writing", path.string());
@@ -369,16 +380,34 @@ void HistoryWriter::save_snapshot(const ControllerSnapshot& s) {
 
 void HistoryWriter::commit() { live().commit(); }
 
-ResumePoint HistoryWriter::resume_run(RunId run) {
+ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
   Impl& m = live();
   m.commit();
   auto runs = detail::query_runs(*m.db, run);
   if (runs.empty()) throw StorageError(StorageErrorKind::NotFound, m.file, "run " + std::to_string(run) + " does not exist");
-  auto snapshots = detail::query_snapshots(*m.db, run, true);
+  auto snapshots = detail::query_snapshots(*m.db, run, !usable);
   if (snapshots.empty())
     throw StorageError(StorageErrorKind::NotFound, m.file,
                        "run " + std::to_string(run) + " has no controller snapshot to resume from");
-  ResumePoint point{std::move(runs.front()), std::move(snapshots.front())};
+  // The latest snapshot the caller can use; the damaged ones after it are named.
+  std::vector<std::string> skipped;
+  auto chosen = snapshots.rend();
+  for (auto it = snapshots.rbegin(); it != snapshots.rend(); ++it) {
+    const std::string why = usable ? usable(*it) : std::string();
+    if (why.empty()) {
+      chosen = it;
+      break;
+    }
+    skipped.push_back("snapshot " + std::to_string(it->snapshot_id) + " at time_s " + std::to_string(it->time_s) +
+                      ": " + why);
+  }
+  if (chosen == snapshots.rend()) {
+    std::string all;
+    for (const std::string& s : skipped) all += (all.empty() ? "" : "; ") + s;
+    throw StorageError(StorageErrorKind::Corrupt, m.file,
+                       "run " + std::to_string(run) + " has no usable controller snapshot to resume from: " + all);
+  }
+  ResumePoint point{std::move(runs.front()), std::move(*chosen), std::move(skipped)};
   const double t = point.snapshot.time_s;
   m.insert([&] {
     // Everything after the snapshot is redone by the resumed run; table names are fixed text.
@@ -389,8 +418,8 @@ ResumePoint HistoryWriter::resume_run(RunId run) {
     }
     Statement samples(*m.db, "DELETE FROM input_samples WHERE run_id = ?1 AND (sample_index >= ?2 OR time_s > ?3)");
     samples.bind(1, run).bind(2, point.snapshot.next_sample_index).bind(3, t).run();
-    Statement later(*m.db, "DELETE FROM controller_snapshots WHERE run_id = ?1 AND time_s > ?2");
-    later.bind(1, run).bind(2, t).run();
+    Statement later(*m.db, "DELETE FROM controller_snapshots WHERE run_id = ?1 AND (time_s > ?2 OR snapshot_id > ?3)");
+    later.bind(1, run).bind(2, t).bind(3, point.snapshot.snapshot_id).run();
     Statement status(*m.db, "UPDATE runs SET status = 'running', ended_unix_s = NULL WHERE run_id = ?1");
     status.bind(1, run).run();
   });

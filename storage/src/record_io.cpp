@@ -33,25 +33,24 @@ std::vector<RunRecord> query_runs(Database& db, std::optional<RunId> only) {
   return runs;
 }
 
+ControllerSnapshot read_snapshot(Statement& st) {
+  ControllerSnapshot s;
+  s.run_id = st.column_int(0);
+  s.time_s = st.column_double(1);
+  s.next_sample_index = st.column_int(2);
+  s.format = st.column_text(3);
+  s.is_json = st.column_int(4) != 0;
+  s.payload = st.column_blob(5);
+  s.snapshot_id = st.column_int(6);
+  return s;
+}
+
 std::vector<ControllerSnapshot> query_snapshots(Database& db, RunId run, bool latest_only) {
-  Statement st(db,
-               latest_only
-                   ? "SELECT run_id, time_s, next_sample_index, format, is_json, payload FROM controller_snapshots "
-                     "WHERE run_id = ?1 ORDER BY time_s DESC, snapshot_id DESC LIMIT 1"
-                   : "SELECT run_id, time_s, next_sample_index, format, is_json, payload FROM controller_snapshots "
-                     "WHERE run_id = ?1 ORDER BY time_s, snapshot_id");
+  Statement st(db, std::string("SELECT ") + kSnapshotColumns + " FROM controller_snapshots WHERE run_id = ?1 ORDER BY " +
+                       (latest_only ? "time_s DESC, snapshot_id DESC LIMIT 1" : "time_s, snapshot_id"));
   st.bind(1, run);
   std::vector<ControllerSnapshot> snapshots;
-  while (st.step()) {
-    ControllerSnapshot s;
-    s.run_id = st.column_int(0);
-    s.time_s = st.column_double(1);
-    s.next_sample_index = st.column_int(2);
-    s.format = st.column_text(3);
-    s.is_json = st.column_int(4) != 0;
-    s.payload = st.column_blob(5);
-    snapshots.push_back(std::move(s));
-  }
+  while (st.step()) snapshots.push_back(read_snapshot(st));
   return snapshots;
 }
 

@@ -53,9 +53,9 @@ struct Stopped {};
 
 class UnitRunner {
  public:
-  UnitRunner(const StudyCase& c, std::size_t case_index, const std::vector<ParameterSet>& sets,
-             const StudyOptions& options, StudyStats& stats)
-      : case_(c), case_index_(case_index), sets_(sets), options_(options), stats_(stats) {}
+  UnitRunner(std::size_t case_index, const std::vector<ParameterSet>& sets, const StudyOptions& options,
+             StudyStats& stats)
+      : case_index_(case_index), sets_(sets), options_(options), stats_(stats) {}
 
   // Runs `members` from the branch's position (after `pending`, a probe it still has to take).
   void run(Branch& b, const std::vector<std::size_t>& members, const ProbeMeasurement* pending,
@@ -108,7 +108,6 @@ class UnitRunner {
   void count(const ControllerOutput& out) {
     if (out.fit) ++stats_.fits;
   }
-  const StudyCase& case_;
   std::size_t case_index_;
   const std::vector<ParameterSet>& sets_;
   const StudyOptions& options_;
@@ -198,7 +197,7 @@ StudyStats run_study(const std::vector<StudyCase>& cases, const std::vector<Para
       std::vector<StudyRow> rows;
       try {
         Branch trunk(c.scenario, sets[unit.sets.front()].parameters);
-        UnitRunner(c, unit.case_index, sets, options, stats).run(trunk, unit.sets, nullptr, rows);
+        UnitRunner(unit.case_index, sets, options, stats).run(trunk, unit.sets, nullptr, rows);
       } catch (const Stopped&) {
         stopped = true;
         return;

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "common/input_file.hpp"
 #include "common/number_text.hpp"
 
 namespace alc::study {
@@ -204,8 +205,7 @@ Grid parse_grid(std::string_view text, const std::string& file) {
 
 Grid load_grid(const std::string& grid) {
   if (grid == "paper") return paper_grid();
-  std::error_code ec;
-  if (std::filesystem::is_directory(grid, ec)) throw GridError(grid + ": is a directory, not a grid file");
+  if (const std::string problem = io::input_file_problem(grid); !problem.empty()) throw GridError(grid + ": " + problem);
   std::ifstream in(grid, std::ios::binary);
   if (!in) throw GridError(grid + ": cannot open the grid file (give 'paper' or a TOML file)");
   std::ostringstream text;

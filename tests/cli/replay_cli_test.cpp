@@ -125,6 +125,86 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
 }
 
+TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {
+  // Each of these ran (to the end, or at "-1 h", or as 16 h) before; now each is a usage error.
+  const char* const refused[][2] = {
+      {"replay --case A --db x.sqlite --stop-at nan", "--stop-at: 'nan' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at -inf", "--stop-at: '-inf' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at -1", "--stop-at: '-1' is not a number >= 0"},
+      {"replay --case A --db x.sqlite --stop-at inf", "--stop-at: 'inf' is not a number >= 0"},
+      {"replay --case A --kill-at 1h", "--kill-at: '1h' is not a number >= 0"},
+      {"replay --case A --cp 0x10", "cp: '0x10' is not a number >= 0"},
+      {"--log-max-bytes 1e3 replay --case A", "--log-max-bytes: '1e3' is not a whole number from 1 to"},
+      {"--log-max-files -1 replay --case A", "--log-max-files: '-1' is not a whole number from 0 to"},
+      {"bench --repeat 0x2", "--repeat: '0x2' is not a whole number from 1 to 1000000"},
+      {"bench --long nan", "--long: 'nan' is not a number >= 0"},
+      {"bench --long 0.5", "--long: '0.5' is not a number from 1 to 3650"},
+      {"db bench --samples 2.5", "--samples: '2.5' is not a whole number from 1 to"},
+      {"db bench --batch 0", "--batch: '0' is not a whole number from 1 to"},
+      {"nc --dialect linuxcnc --sink linuxcncrsh --port 70000", "--port: '70000' is not a whole number from 1 to 65535"},
+      {"study --case A --jobs -2", "--jobs: '-2' is not a whole number from 0 to 4096"},
+      {"study --case A --bench --bench-sample 5x", "--bench-sample: '5x' is not a whole number"},
+      {"study --grid paper --case A --shard 0x1/2", "--shard: '0x1/2' is not I/N"},
+      {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
+  };
+  for (const auto& [args, message] : refused) {
+    INFO(args);
+    const Run r = alc(args);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(message));
+  }
+}
+
+TEST_CASE("a result that does not reach stdout is a failure (issue 13 item 8)") {
+  // /dev/full: every write fails with ENOSPC. Before, these exited 0.
+  for (const std::string args : {"replay --case A --json", "replay --case A", "db path", "simulate --list"}) {
+    INFO(args);
+    const fs::path err = work_dir() / "full_err";
+    const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >/dev/full 2>\"" + err.string() + "\"";
+    const int status = std::system(cmd.c_str());
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 1);
+    CHECK_THAT(slurp(err), Catch::Matchers::Contains("alc: error: writing to stdout failed: No space left on device"));
+  }
+}
+
+TEST_CASE("output paths that are symbolic links or directories are refused and left as they were (issue 13 item 7)") {
+  const fs::path dir = work_dir() / "out_paths";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "adir");
+  { std::ofstream(dir / "target.csv") << "keep\n"; }
+  fs::create_symlink(dir / "target.csv", dir / "link.csv");
+  const std::string db = (dir / "h.sqlite").string();
+  REQUIRE(alc("replay --case A --cp 1 --db \"" + db + "\" --stop-at 2").exit_code == 0);
+  const std::string outputs[] = {"replay --case A --cp 1 --residuals ", "db export \"" + db + "\" --table runs --out ",
+                                 "simulate --case A --out "};
+  for (const std::string& command : outputs) {
+    for (const fs::path& target : {dir / "link.csv", dir / "adir"}) {
+      INFO(command << target);
+      const Run r = alc(command + "\"" + target.string() + "\"");
+      CHECK(r.exit_code == 1);
+      CHECK_THAT(r.err, Catch::Matchers::Contains("cannot write '" + target.string() + "': it is a"));
+    }
+  }
+  CHECK(fs::is_symlink(dir / "link.csv"));
+  CHECK(slurp(dir / "target.csv") == "keep\n");
+  CHECK(fs::is_empty(dir / "adir"));
+  for (const auto& e : fs::directory_iterator(dir)) CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("a non-UTF-8 column name is refused before a run is begun (issue 13 item 4)") {
+  const fs::path dir = work_dir() / "utf8";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  { std::ofstream(dir / "bad.csv", std::ios::binary) << "time_s,T\xFE,E_X0C\n0,1,2\n60,1,2\n"; }
+  const Run r = alc("replay \"" + (dir / "bad.csv").string() + "\" --db \"" + (dir / "h.sqlite").string() + "\"");
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Matchers::Contains((dir / "bad.csv").string() + ":1:2: column name is not UTF-8"));
+  CHECK_FALSE(fs::exists(dir / "h.sqlite"));  // no run left 'running'
+  fs::remove_all(dir);
+}
+
 TEST_CASE("alc replay --residuals writes measured and predicted columns after CP") {
   const fs::path file = work_dir() / "res.csv";
   REQUIRE(alc("replay --case A --residuals \"" + file.string() + "\"").exit_code == 0);

@@ -81,7 +81,7 @@ TEST_CASE("atomic file: failures name the path and the cause and leave no tempor
     fs::create_directories(path);
     { std::ofstream(path / "inside", std::ios::binary) << "x"; }
     CHECK_THROWS_WITH(write_file_atomically(path, std::string_view("text")),
-                      Contains("cannot write '" + path.string() + "'") && Contains("rename"));
+                      Contains("cannot write '" + path.string() + "'") && Contains("it is a directory"));
     CHECK(read_text(path / "inside") == "x");
   }
   SECTION("the target is an empty directory") {
@@ -89,6 +89,25 @@ TEST_CASE("atomic file: failures name the path and the cause and leave no tempor
     fs::create_directories(path);
     CHECK_THROWS_AS(write_file_atomically(path, std::string_view("text")), std::runtime_error);
     CHECK(fs::is_directory(path));
+  }
+  SECTION("a symbolic link is refused, whether it points to a file or nowhere (issue 13 item 7)") {
+    const fs::path file = dir / "real.txt";
+    write_file_atomically(file, std::string_view("real\n"));
+    fs::create_symlink(file, dir / "link");
+    fs::create_symlink(dir / "nowhere", dir / "dangling");
+    for (const fs::path& link : {dir / "link", dir / "dangling"}) {
+      CHECK_THROWS_WITH(write_file_atomically(link, std::string_view("text")),
+                        Contains("cannot write '" + link.string() + "': it is a symbolic link"));
+      CHECK(fs::is_symlink(link));
+    }
+    CHECK(read_text(file) == "real\n");
+    CHECK_FALSE(fs::exists(dir / "nowhere"));
+  }
+  SECTION("a device node is refused and stays a device (issue 13 item 7)") {
+    CHECK_THROWS_WITH(write_file_atomically("/dev/null", std::string_view("text")),
+                      Contains("cannot write '/dev/null': it is a character device"));
+    CHECK(fs::is_character_file("/dev/null"));
+    for (const auto& name : names_in("/dev")) CHECK(name.find("null.tmp") == std::string::npos);
   }
   SECTION("the producer throws: its exception passes unchanged, the old file stays") {
     const fs::path path = dir / "keep.txt";

@@ -150,6 +150,18 @@ TEST_CASE("byte codec: truncated or corrupt payloads throw, naming the field") {
   big_matrix.u64(1ULL << 40);
   ByteReader r3(big_matrix.bytes());
   CHECK_THROWS_WITH(r3.matrix("model"), Contains("corrupt: model"));
+  // An empty matrix with an absurd other dimension (found by fuzz/run_state_fuzz.cpp: 0 x 2^62 took
+  // ages to walk) is refused; empty matrices of a sane size still read.
+  ByteWriter empty_wide;
+  empty_wide.u64(0);
+  empty_wide.u64(1ULL << 62);
+  ByteReader r6(empty_wide.bytes());
+  CHECK_THROWS_WITH(r6.matrix("model"), Contains("corrupt: model") && Contains("0 x 4611686018427387904"));
+  ByteWriter empty_ok;
+  empty_ok.u64(0);
+  empty_ok.u64(7);
+  ByteReader r7(empty_ok.bytes());
+  CHECK(r7.matrix("model").cols() == 7);
 
   ByteWriter not_bool;
   not_bool.u8(2);

@@ -302,7 +302,7 @@ TEST_CASE("safety: max_step refuses or splits, by configuration", "[nc][safety]"
       CHECK(std::abs(s.x_mm - previous) <= limits.max_step.x_mm + 1e-12);
       previous = s.x_mm;
     }
-    CHECK_THAT(d.to_send[0].x_mm, WithinAbs(0.00875, 1e-15));
+    CHECK(d.to_send[0].x_mm == 0.0087);  // steps are multiples of the NC resolution, as printed
     CHECK(d.to_send.back() == big);
     CHECK(gate.current(1) == big);
     CHECK_THAT(d.message, StartsWith("split into 4 steps"));
@@ -320,6 +320,71 @@ TEST_CASE("safety: max_step refuses or splits, by configuration", "[nc][safety]"
     CHECK(gate.submit(offsets(0.02, 0, 0, 0, 0)).verdict == SafetyVerdict::Accepted);
     CHECK(gate.submit(offsets(0.02, 0, 0, 0, 0, 2)).verdict == SafetyVerdict::Refused);  // G55 starts at 0
   }
+}
+
+TEST_CASE("safety: a rotary axis left out of a line keeps its value on the control (issue 13 item 1)",
+          "[nc][safety]") {
+  // a_deg -0.001, then a line with b_deg and no a_deg (no A word is written: the control keeps
+  // -0.001), then a_deg +0.001: a step of 0.002 deg on A against max_step 0.001.
+  AxisOffsets b_only = offsets(0, 0, 0, 0, 0);
+  b_only.a_deg.reset();
+  b_only.b_deg = 0.0005;
+  const std::vector<NcCommand> stream{offsets(0, 0, 0, -0.001, 0), b_only, offsets(0, 0, 0, 0.001, 0)};
+  for (const Dialect dialect : {Dialect::LinuxCNC, Dialect::Fanuc, Dialect::Sinumerik, Dialect::Heidenhain}) {
+    INFO(dialect_name(dialect));
+    CommandRecorder recorder = recorder_for(dialect);
+    CHECK(recorder.record(stream[0]).verdict == SafetyVerdict::Accepted);
+    CHECK(recorder.record(stream[1]).verdict == SafetyVerdict::Accepted);
+    CHECK(recorder.current(1).a_deg == -0.001);  // held, not 0
+    const SafetyDecision d = recorder.record(stream[2]);
+    CHECK(d.verdict == SafetyVerdict::Refused);
+    CHECK_THAT(d.message, Contains("axis A change 0.0020 deg exceeds max_step 0.0010 deg"));
+  }
+  // Split: the steps start from the held value, and a left-out axis stays left out.
+  SafetyLimits split;
+  split.on_step_violation = StepAction::Split;
+  SafetyGate gate(split);
+  REQUIRE(gate.submit(std::get<AxisOffsets>(stream[0])).verdict == SafetyVerdict::Accepted);
+  REQUIRE(gate.submit(b_only).verdict == SafetyVerdict::Accepted);
+  const SafetyDecision s = gate.submit(std::get<AxisOffsets>(stream[2]));
+  REQUIRE(s.verdict == SafetyVerdict::Split);
+  REQUIRE(s.to_send.size() == 2);
+  CHECK(s.to_send[0].a_deg == 0.0);
+  CHECK(!s.to_send[0].b_deg);
+}
+
+TEST_CASE("safety: the value is judged as printed at the NC resolution (issue 13 item 2)", "[nc][safety]") {
+  SafetyLimits limits;
+  limits.max_offset.x_mm = 0.00015;  // not a multiple of the resolution
+  SafetyGate gate(limits);
+  const SafetyDecision d = gate.submit(offsets(0.00015, 0, 0, 0, 0));  // written X0.0002
+  CHECK(d.verdict == SafetyVerdict::Refused);
+  CHECK_THAT(d.message, Contains("axis X offset 0.0002 mm exceeds max_offset 0.00015 mm"));
+  CHECK(gate.submit(offsets(0.00014, 0, 0, 0, 0)).verdict == SafetyVerdict::Accepted);  // written X0.0001
+  // A step that reads within max_step but prints beyond it: 0.00014 -> 0.00029 is 0.00015, printed
+  // 0.0001 -> 0.0003 = 0.0002 against max_step 0.00015.
+  SafetyLimits steps;
+  steps.max_step.y_mm = 0.00015;
+  SafetyGate step_gate(steps);
+  REQUIRE(step_gate.submit(offsets(0, 0.00014, 0, 0, 0)).verdict == SafetyVerdict::Accepted);
+  CHECK(step_gate.submit(offsets(0, 0.00029, 0, 0, 0)).verdict == SafetyVerdict::Refused);
+  // Split steps are printed values each within max_step (0.00015 allows 1 tick per step).
+  steps.on_step_violation = StepAction::Split;
+  const SafetyDecision split = check_offsets(steps, offsets(0, 0, 0, 0, 0), offsets(0, 0.0003, 0, 0, 0));
+  REQUIRE(split.verdict == SafetyVerdict::Split);
+  REQUIRE(split.to_send.size() == 3);
+  CHECK(split.to_send[0].y_mm == 0.0001);
+  CHECK(split.to_send[1].y_mm == 0.0002);
+  CHECK(split.to_send[2].y_mm == 0.0003);
+  // A max_step below the resolution cannot be split into anything.
+  steps.max_step.y_mm = 0.00005;
+  CHECK_THAT(check_offsets(steps, offsets(0, 0, 0, 0, 0), offsets(0, 0.0001, 0, 0, 0)).message,
+             Contains("below the NC resolution"));
+  // With a base offset (G10 L2 writes base + compensation), the compensation is written as judged.
+  DialectOptions options;
+  options.base[0].x_mm = 10.00005;
+  const std::string program = write_program(Dialect::LinuxCNC, {offsets(0.00015, 0, 0, 0, 0)}, options);
+  CHECK_THAT(program, Contains("X10.0003 "));  // 10.0001 (base as printed) + 0.0002
 }
 
 TEST_CASE("safety: one offset register (heidenhain) judges every work offset against the last command",
@@ -474,7 +539,7 @@ c_deg = 0.002
   CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 1]"), Contains("parallel"));
   CHECK_THAT(error("[kinematics]\nchian = \"A-C\""), StartsWith("m.toml: key 'kinematics.chian': unknown key"));
   CHECK_THAT(error("[nc.base.G60]\nx_mm = 1"), StartsWith("m.toml: key 'nc.base.G60'"));
-  CHECK_THAT(error("[nc\n"), StartsWith("m.toml: key '': ") && Contains("line 1"));
+  CHECK_THAT(error("[nc\n"), StartsWith("m.toml: ") && Contains("line 1"));
   CHECK_THAT(error("[nc]\nwork_offset = 54"), Contains("not a string") && Contains("'54'"));
 }
 
@@ -614,6 +679,14 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   alc::nc::test::write_text(dir / "m.toml", "[limits]\non_step_violation = \"split\"\n[limits.max_offset]\nx_mm = 0.5\n");
   CHECK(run("--dialect fanuc --machine " + (dir / "m.toml").string() + " --in " + (dir / "big.jsonl").string()) == 0);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("split into 20 steps"));
+  // Paths that are directories (issue 13 item 9): not the defaults, not an empty program.
+  CHECK(run("--dialect fanuc --machine " + dir.string() + " --in " + (dir / "in.jsonl").string()) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains(dir.string() + ": not a regular file (a directory)"));
+  CHECK(run("--dialect fanuc --in " + dir.string()) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("--in " + dir.string() + ": not a regular file (a directory)"));
+  CHECK(alc::nc::test::read_text(dir / "out").empty());
+  CHECK(run("--dialect fanuc --in-force " + dir.string() + " --in " + (dir / "in.jsonl").string()) == 2);
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not a regular file (a directory)"));
   std::filesystem::remove_all(dir);
 }
 

@@ -246,6 +246,18 @@ TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
   CHECK(message_of("time_s,T,E_X0C,\n0,1,2,3\n") == "case.csv:1:4: empty column name in header: value 'time_s,T,E_X0C,'");
 }
 
+TEST_CASE("scenario CSV: a column name that is not UTF-8 is rejected at read time (issue 13 item 4)") {
+  const auto bad = rejected("time_s,T\xFF" "1,E_X0C\n0,1,2\n60,1,2\n");
+  CHECK(bad.line == 1);
+  CHECK(bad.column == 2);
+  CHECK(std::string(bad.what()) == "case.csv:1:2: column name is not UTF-8 (byte 2): value 'T\\xFF1'");
+  // Overlong, surrogate and truncated sequences too; well-formed UTF-8 ("°C") is a name like any other.
+  CHECK(rejected("time_s,\xC0\xB0,E_X0C\n0,1,2\n").column == 2);
+  CHECK(rejected("time_s,\xED\xA0\x80,E_X0C\n0,1,2\n").column == 2);
+  CHECK(rejected("time_s,T,E_X0C\xE2\x82\n0,1,2\n").column == 3);
+  CHECK(parse("time_s,T_\xC2\xB0" "C,E_X0C\n0,1,2\n60,1,2\n").input_names[0] == "T_\xC2\xB0" "C");
+}
+
 TEST_CASE("scenario CSV: time not strictly increasing is rejected at its line and column") {
   const auto equal = rejected("T,time_s,E_X0C\n1,0,2\n1,60,\n1,60,\n");
   CHECK(equal.line == 4);

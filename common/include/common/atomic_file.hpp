@@ -9,9 +9,12 @@ namespace alc::io {
 
 // Writes `text` to `path` atomically: into a new temporary file beside `path` (same directory,
 // a name of its own: PATH.tmp.<pid>.<n>, created exclusively, so neither a stale file of an earlier
-// crash nor another writer is touched), flushed and fsync'ed, then renamed over `path`. On any
-// failure the temporary file is removed, `path` is left as it was, and std::runtime_error says
-// "cannot write 'PATH': " and the cause (no such directory, the target is a directory, disk full).
+// crash nor another writer is touched), flushed and fsync'ed, then renamed over `path`. `path` must
+// be a regular file or a new path: a symbolic link, a directory, a device node, a pipe or a socket
+// is refused before anything is created (the rename would replace it with a regular file; there is
+// no write-through). On any failure the temporary file is removed, `path` is left as it was, and
+// std::runtime_error says "cannot write 'PATH': " and the cause (no such directory, it is a
+// symbolic link, disk full).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);
 
 // The same for a text produced as a stream: `write` fills the stream. An exception from `write`

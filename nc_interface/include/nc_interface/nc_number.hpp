@@ -20,4 +20,16 @@ inline constexpr double kMaxNcMagnitude = 1e6;
 // above kMaxNcMagnitude.
 std::string format_nc_number(double value, SignStyle sign = SignStyle::NegativeOnly);
 
+// The NC resolution: 0.0001 mm / 0.0001°, 10^4 ticks per unit.
+inline constexpr double kNcTicksPerUnit = 1e4;
+// The value format_nc_number(value) prints, in ticks of the NC resolution (0.00015 -> 2). Throws
+// like format_nc_number.
+long long nc_ticks(double value);
+// The double nearest the printed decimal (nc_ticks(value) / 1e4): what the NC holds after reading
+// the text; format_nc_number of it prints the same text.
+double as_printed(double value);
+// A work offset written as base + compensation (G10 L2): the printed base plus the printed
+// compensation, so that the compensation the NC holds is exactly the one the safety gate judged.
+double with_base(double base, double offset);
+
 }  // namespace alc::nc

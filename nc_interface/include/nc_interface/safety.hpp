@@ -54,8 +54,13 @@ struct SafetyDecision {
   std::string message;                 // one line: verdict, and each violation with axis, value, limit
 };
 
-// Check `requested` against the limits, starting from `current` (the offsets in force now).
-// A max_offset violation is always refused (no number of steps makes it safe).
+// Check `requested` against the limits, starting from `current` (the offsets in force now). Judged
+// is what the NC holds after the line as written: every value as printed (as_printed: 0.00015 is
+// written 0.0002 and judged so), and a rotary axis that `requested` leaves out (a_deg or b_deg
+// empty) keeps its value from `current` (no word is written for it). Split steps are multiples of
+// the NC resolution, each printed change within max_step; an axis whose max_step is below the
+// resolution cannot move by splitting. A max_offset violation is always refused (no number of
+// steps makes it safe); a value that is not finite or beyond ±1e6 is refused.
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested);
 
 // Where the NC keeps the offsets that the commands write, which decides what max_step is judged
@@ -81,7 +86,8 @@ class SafetyGate {
   // the machine hold?).
   void set_in_force(const AxisOffsets& offsets);
   // The offsets a command for `work_offset` is judged against: zero offsets on that work offset
-  // before the first accepted command or set_in_force. With OffsetRegisters::Single the one
+  // before the first accepted command or set_in_force; after a command, what the NC holds (values as
+  // printed, a rotary axis the command left out as it was). With OffsetRegisters::Single the one
   // register, whatever `work_offset` (its work_offset is that of the command that set it).
   AxisOffsets current(int work_offset) const;
   const SafetyLimits& limits() const { return limits_; }

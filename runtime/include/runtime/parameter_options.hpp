@@ -36,16 +36,12 @@ const ParameterOption* find_parameter_option(std::string_view name);
 // Option texts (name, value) in the order given; an option given twice: the last wins.
 using OptionTexts = std::vector<std::pair<std::string, std::string>>;
 
-// Sets option `name` of `p` from `text` (numbers are decimal: no sign, hex, nan; "inf" where the
-// option takes it). Throws std::invalid_argument naming the option and the value.
+// Sets option `name` of `p` from `text` (numbers by common::parse_number: decimal, no sign, hex,
+// nan; "inf" where the option takes it). Throws std::invalid_argument naming the option and the value.
 void set_parameter(AlcParameters& p, std::string_view name, std::string_view text);
 
 // The parameters of the defaults with `options` applied, validated (p.validate()). Throws
 // std::invalid_argument naming the option and the value, or the violated constraint.
 AlcParameters parameters_of(const OptionTexts& options);
-
-// Strict decimal number: digits, an optional fraction and exponent, nothing else ("6.5", "1e3");
-// "inf" when allow_inf. Throws std::invalid_argument "<what>: '<text>' is not ...".
-double parse_number(std::string_view what, std::string_view text, bool allow_inf);
 
 }  // namespace alc::runtime

@@ -33,6 +33,10 @@ struct RunState {
 std::string encode_run_state(const RunState& state);
 RunState decode_run_state(const std::string& payload);
 
+// Empty if `snapshot` can be resumed from (format kRunStateFormat, a payload that decodes: its
+// checksum holds), else why not. The storage::SnapshotCheck of resume and `alc db check`.
+std::string run_state_problem(const storage::ControllerSnapshot& snapshot);
+
 // The number of input samples the controller of a decoded state needs back, oldest first: the last
 // `history_rows(state)` samples the run accepted.
 std::int64_t history_rows(const ControllerState& state);

@@ -7,6 +7,8 @@
 #include <string_view>
 #include <vector>
 
+#include "storage/history_writer.hpp"
+
 namespace alc::storage {
 
 struct CheckReport {
@@ -17,8 +19,10 @@ struct CheckReport {
 // PRAGMA integrity_check, foreign_key_check, then the project's checks: every run has a JSON
 // configuration and channel names; times strictly increase per run for input samples and never
 // decrease for the other tables; vector lengths match the run's channels; JSON snapshots parse.
-// Throws StorageError only if the file cannot be opened as an ALC history at all.
-CheckReport check_history(const std::filesystem::path& path);
+// With `snapshot_check` (runtime::run_state_problem), every snapshot whose payload it refuses is a
+// problem naming the snapshot id and run. Throws StorageError only if the file cannot be opened as
+// an ALC history at all.
+CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck& snapshot_check = {});
 
 // Tables `alc db export` accepts (the fixed list; nothing else reaches SQL).
 const std::vector<std::string>& exportable_tables();

@@ -19,7 +19,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "storage/records.hpp"
 
@@ -35,6 +38,9 @@ struct WriterOptions {
   Durability durability = Durability::Process;
   bool create_directories = false;      // create missing parent directories of the file
   std::int64_t max_page_count = 0;      // cap on the file size in pages (0 = none); SQLITE_FULL above
+  // Open an existing history only (to resume a run in it): a missing or empty file, or a symbolic
+  // link to nothing, is StorageError(NotFound) and nothing is created or initialised.
+  bool must_exist = false;
 
   // Empty if valid, else which field is wrong and its value.
   std::string validate() const;
@@ -43,7 +49,12 @@ struct WriterOptions {
 struct ResumePoint {
   RunRecord run;                        // the run being resumed (status back to Running)
   ControllerSnapshot snapshot;          // restore the controller from this
+  std::vector<std::string> skipped;     // later snapshots the check refused: "snapshot ID at time_s T: why"
 };
+
+// Empty if the caller can restore from `snapshot`, else why not (its payload is damaged, say). The
+// storage layer does not know the payload's format; the runtime does (runtime::run_state_problem).
+using SnapshotCheck = std::function<std::string(const ControllerSnapshot&)>;
 
 class HistoryWriter {
  public:
@@ -86,8 +97,11 @@ class HistoryWriter {
   // Commits the open transaction (no-op when nothing is pending).
   void commit();
 
-  // See the file comment. Throws StorageError(NotFound) if the run or its snapshot is missing.
-  ResumePoint resume_run(RunId run);
+  // See the file comment. With `usable`, the latest snapshot that passes it: later ones that do not
+  // are listed in ResumePoint::skipped (and deleted with the records after the one used). Throws
+  // StorageError(NotFound) if the run or its snapshot is missing, StorageError(Corrupt) naming every
+  // snapshot and why if none passes; nothing is changed then.
+  ResumePoint resume_run(RunId run, const SnapshotCheck& usable = {});
 
   // Commits and closes; further calls throw. Safe to call twice.
   void close();

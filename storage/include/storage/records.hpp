@@ -122,6 +122,7 @@ struct ControllerSnapshot {
   std::string format;                       // caller's format and version, "alc.controller/1"
   bool is_json = false;                     // payload is JSON text (checked by `alc db check`)
   std::string payload;                      // bytes (any, NUL included) or JSON text
+  std::int64_t snapshot_id = 0;             // set when read back (0 for one not stored yet)
 };
 
 }  // namespace alc::storage

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The libFuzzer targets of fuzz/ (README "Fuzzing"): builds build/fuzz (clang, -DALC_FUZZ=ON) and
+# runs every target from its seed corpus (fuzz/corpus/<target>, never written to).
+#   bash scripts/fuzz.sh          the short run of the CTest tests (label fuzz)
+#   bash scripts/fuzz.sh --long   10^6 executions per target (ALC_FUZZ_RUNS to change it); prints per
+#                                 target executions, coverage (edges, features), corpus size, time and
+#                                 findings (crash, leak, timeout or OOM inputs, kept in build/fuzz/long/)
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+ensure_packages "${ALC_FUZZ_PACKAGES[@]}"
+build_fuzz
+if [ "${1:-}" != "--long" ]; then
+  exec ctest --no-tests=error --test-dir "$ALC_ROOT/build/fuzz" -L fuzz -j "$ALC_JOBS" --output-on-failure
+fi
+runs="${ALC_FUZZ_RUNS:-1000000}"
+out="$ALC_ROOT/build/fuzz/long"
+rm -rf "$out"
+mkdir -p "$out"
+printf '%-14s %12s %8s %8s %10s %8s %9s\n' target executions cov ft corpus "time[s]" findings
+findings_total=0
+for target in scenario_csv nc_jsonl machine_toml grid_toml run_state; do
+  mkdir -p "$out/corpus_$target"
+  dict=()
+  [ -f "$ALC_ROOT/fuzz/$target.dict" ] && dict=(-dict="$ALC_ROOT/fuzz/$target.dict")
+  start=$(date +%s)
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    "$ALC_ROOT/build/fuzz/fuzz/fuzz_$target" -seed=1 -runs="$runs" -max_len=8192 -timeout=10 -rss_limit_mb=2048 \
+    "${dict[@]}" -print_final_stats=1 -artifact_prefix="$out/${target}_" \
+    "$out/corpus_$target" "$ALC_ROOT/fuzz/corpus/$target" >"$out/$target.log" 2>&1 || true
+  seconds=$(( $(date +%s) - start ))
+  # The last status line: "#N DONE cov: C ft: F corp: K/..." (or the last progress line before a finding).
+  last=$(grep -E '^#[0-9]+' "$out/$target.log" | tail -1)
+  executions=$(grep -oE 'stat::number_of_executed_units: *[0-9]+' "$out/$target.log" | grep -oE '[0-9]+$' || true)
+  [ -n "$executions" ] || executions=$(sed -E 's/^#([0-9]+).*/\1/' <<<"$last")
+  cov=$(grep -oE 'cov: [0-9]+' <<<"$last" | grep -oE '[0-9]+' || echo -)
+  ft=$(grep -oE 'ft: [0-9]+' <<<"$last" | grep -oE '[0-9]+' || echo -)
+  corp=$(grep -oE 'corp: [0-9]+' <<<"$last" | grep -oE '[0-9]+' || echo -)
+  findings=$(find "$out" -maxdepth 1 -name "${target}_*" -type f | wc -l)
+  findings_total=$((findings_total + findings))
+  printf '%-14s %12s %8s %8s %10s %8s %9s\n' "$target" "$executions" "$cov" "$ft" "$corp" "$seconds" "$findings"
+done
+echo "logs and any findings: $out"
+[ "$findings_total" -eq 0 ]

@@ -1,0 +1,120 @@
+// Issue 13 (reliability): what the CLI does with a history and data that changed under it.
+#include <catch2/catch.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "../cli_support.hpp"
+#include "scenarios/scenario.hpp"
+#include "scenarios/scenario_csv.hpp"
+
+namespace fs = std::filesystem;
+using alc_test::CliRun;
+using namespace alc;
+
+namespace {
+
+CliRun run(const std::string& args) { return alc_test::run_alc(args, "reliability_cli_test"); }
+
+}  // namespace
+
+TEST_CASE("alc replay --resume refuses another recording under the same file name naming both hashes (issue 13 item 6)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "same_name";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path csv = dir / "rec.csv", db = dir / "h.sqlite";
+  REQUIRE(run("simulate --case A --out \"" + csv.string() + "\"").exit_code == 0);
+  const std::string first = scenarios::content_hash(scenarios::read_scenario_csv(csv));
+  REQUIRE(run("replay \"" + csv.string() + "\" --db \"" + db.string() + "\" --stop-at 8").exit_code == 0);
+  REQUIRE(run("simulate --case A --seed 7 --out \"" + csv.string() + "\"").exit_code == 0);
+  const std::string second = scenarios::content_hash(scenarios::read_scenario_csv(csv));
+  REQUIRE(first != second);
+  const CliRun r = run("replay \"" + csv.string() + "\" --db \"" + db.string() + "\" --resume");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("of 'file " + csv.string() + "' was recorded from other data: content hash " +
+                                              first + " stored, " + second + " given"));
+  fs::remove_all(dir);
+}
+
+namespace {
+
+// Runs `sqlite3 DB SQL` and returns its stdout without the final newline.
+std::string sql(const fs::path& db, const std::string& statement) {
+  const fs::path out = alc_test::work_dir("reliability_cli_test") / "sql_out";
+  const std::string cmd = "sqlite3 \"" + db.string() + "\" \"" + statement + "\" >\"" + out.string() + "\"";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  std::string text = alc_test::slurp(out);
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  return text;
+}
+
+// Flips one byte in the middle of the payload of snapshot `id`.
+void damage_snapshot(const fs::path& db, const std::string& id) {
+  sql(db, "UPDATE controller_snapshots SET payload = substr(payload, 1, 999) || CASE WHEN substr(payload, 1000, 1) = "
+          "X'00' THEN X'01' ELSE X'00' END || substr(payload, 1001) WHERE snapshot_id = " + id);
+}
+
+}  // namespace
+
+TEST_CASE("a damaged snapshot is reported by db check and skipped by --resume, which says so (issue 13 item 5)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "snapshot";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path db = dir / "h.sqlite";
+  const CliRun whole = run("replay --case A --json");
+  REQUIRE(whole.exit_code == 0);
+  REQUIRE(run("replay --case A --db \"" + db.string() + "\" --stop-at 30").exit_code == 0);
+  const std::string latest = sql(db, "SELECT max(snapshot_id) FROM controller_snapshots");
+  const std::string before = sql(db, "SELECT max(snapshot_id) FROM controller_snapshots WHERE snapshot_id < " + latest);
+  damage_snapshot(db, latest);
+  const CliRun check = run("db check \"" + db.string() + "\"");
+  CHECK(check.exit_code == 1);
+  CHECK_THAT(check.err, Catch::Matchers::Contains("controller_snapshots: snapshot " + latest +
+                                                  " of run 1: run state: checksum mismatch"));
+  SECTION("resume falls back to the latest good snapshot, names both, and ends as an uninterrupted run") {
+    const CliRun resumed = run("replay --case A --db \"" + db.string() + "\" --resume --json");
+    CHECK(resumed.exit_code == 0);
+    CHECK_THAT(resumed.err, Catch::Matchers::Contains("snapshot " + latest) &&
+                                Catch::Matchers::Contains("resuming from the latest good one, snapshot " + before));
+    CHECK(resumed.out == whole.out);
+    CHECK(run("db check \"" + db.string() + "\"").exit_code == 0);  // the damaged one was redone
+  }
+  SECTION("no good snapshot left: refused with every snapshot named, the history unchanged") {
+    for (const std::string& id : {before, std::string("1")}) damage_snapshot(db, id);
+    const std::string rows = sql(db, "SELECT count(*) FROM input_samples") + " " + sql(db, "SELECT status FROM runs");
+    const CliRun refused = run("replay --case A --db \"" + db.string() + "\" --resume --json");
+    CHECK(refused.exit_code == 2);
+    CHECK_THAT(refused.err, Catch::Matchers::Contains("no usable controller snapshot") &&
+                                Catch::Matchers::Contains("snapshot " + latest + " at") &&
+                                Catch::Matchers::Contains("snapshot 1 at"));
+    CHECK(sql(db, "SELECT count(*) FROM input_samples") + " " + sql(db, "SELECT status FROM runs") == rows);
+  }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("resume on an empty file or a dangling symbolic link is refused and creates nothing (issue 13 item 12)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "resume_nothing";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  { std::ofstream(dir / "empty.sqlite"); }
+  fs::create_symlink(dir / "nowhere.sqlite", dir / "dangling.sqlite");
+  const std::pair<std::string, std::string> cases[] = {{"empty.sqlite", "the file is empty"},
+                                                       {"dangling.sqlite", "a symbolic link to nothing"},
+                                                       {"missing.sqlite", "the file does not exist"}};
+  for (const auto& [name, why] : cases) {
+    INFO(name);
+    const CliRun r = run("replay --case A --db \"" + (dir / name).string() + "\" --resume");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains((dir / name).string()) &&
+                          Catch::Matchers::Contains("no history to resume: " + why));
+  }
+  CHECK(fs::file_size(dir / "empty.sqlite") == 0);
+  CHECK_FALSE(fs::exists(dir / "nowhere.sqlite"));
+  CHECK_FALSE(fs::exists(dir / "missing.sqlite"));
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
+  CHECK(entries == 2);  // no -wal, -shm or journal files either
+  fs::remove_all(dir);
+}
