@@ -423,7 +423,7 @@ const std::vector<std::string>& axis_values(const StudyInfo& info, const std::st
   return none;
 }
 
-double number(const std::string& text) { return runtime::parse_number("cp", text, true); }
+double number(const std::string& text) { return common::parse_number("cp", text, true); }
 
 struct Cell {
   std::optional<std::size_t> set;  // nullopt: no such set in the grid
@@ -739,7 +739,7 @@ std::string grid_cp(const StudyInfo& info, const std::string& text) {
   for (const std::string& v : values) list += (list.empty() ? "" : ", ") + v;
   double want = NAN;
   try {
-    want = runtime::parse_number("cp", text, true);
+    want = common::parse_number("cp", text, true);
   } catch (const std::invalid_argument&) {
   }
   for (const std::string& v : values) {
