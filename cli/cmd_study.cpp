@@ -270,15 +270,7 @@ void run_study_command(const StudyArgs& a) {
     store = std::make_unique<storage::StudyStore>(a.db, now);
     for (const auto& r : rows) done.emplace(r.set_index, r.case_index);
   }
-  // The rows this shard owns: its units and invalid sets.
-  std::size_t total = 0;
-  {
-    const auto units = study::plan_units(cases, info.sets);
-    for (std::size_t u = 0; u < units.size(); ++u)
-      if (study::unit_in_shard(u, shard, shards)) total += units[u].sets.size();
-    for (const auto& s : info.sets)
-      if (!s.error.empty() && study::invalid_set_in_shard(s.index, shard, shards)) total += cases.size();
-  }
+  const std::size_t total = study::shard_rows(cases, info.sets, shard, shards);  // this shard's rows
   const std::size_t reused = done.size();
   Progress progress(total, reused, a.quiet);
   study::StudyOptions o;

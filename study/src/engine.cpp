@@ -140,6 +140,17 @@ bool invalid_set_in_shard(std::size_t set_index, int shard, int shards) {
   return static_cast<int>(set_index % static_cast<std::size_t>(shards)) == shard - 1;
 }
 
+std::size_t shard_rows(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets, int shard,
+                       int shards) {
+  std::size_t rows = 0;
+  const std::vector<Unit> units = plan_units(cases, sets);
+  for (std::size_t u = 0; u < units.size(); ++u)
+    if (unit_in_shard(u, shard, shards)) rows += units[u].sets.size();
+  for (const ParameterSet& s : sets)
+    if (!s.error.empty() && invalid_set_in_shard(s.index, shard, shards)) rows += cases.size();
+  return rows;
+}
+
 StudyStats run_study(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets,
                      const StudyOptions& options) {
   StudyStats total;

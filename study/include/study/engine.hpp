@@ -47,6 +47,10 @@ std::vector<Unit> plan_units(const std::vector<StudyCase>& cases, const std::vec
 // invalid sets in the same way by set. The shards of 1..N together hold every row exactly once.
 bool unit_in_shard(std::size_t unit_index, int shard, int shards);
 bool invalid_set_in_shard(std::size_t set_index, int shard, int shards);
+// The rows shard I of N owns (its units' sets and its invalid sets' rows): what run_study gives it
+// when nothing is done yet.
+std::size_t shard_rows(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets, int shard,
+                       int shards);
 
 struct StudyOptions {
   int jobs = 1;                     // worker threads
