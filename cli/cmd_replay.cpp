@@ -46,6 +46,12 @@ struct ReplayArgs {
   bool no_confirm = false;
   std::string schedule = "paper", uncertainty_fraction = "0.5", min_interval = "0.5", max_interval = "12";
   bool guard = false;
+  // [µm], [µm/m], [°C], [rpm], [-]: readings beyond ± these are sensor faults (AlcParameters::plausible_*)
+  std::string plausible_lin = common::shortest_text(AlcParameters{}.plausible_linear_um);
+  std::string plausible_ang = common::shortest_text(AlcParameters{}.plausible_angular_um_per_m);
+  std::string plausible_temp = common::shortest_text(AlcParameters{}.plausible_temperature_C);
+  std::string plausible_speed = common::shortest_text(AlcParameters{}.plausible_speed_rpm);
+  std::string plausible_other = common::shortest_text(AlcParameters{}.plausible_other);
   std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
@@ -71,7 +77,12 @@ AlcParameters parameters_from(const ReplayArgs& a) {
                             {"uncertainty-fraction", a.uncertainty_fraction},
                             {"min-interval", a.min_interval},
                             {"max-interval", a.max_interval},
-                            {"guard", a.guard ? "true" : "false"}};
+                            {"guard", a.guard ? "true" : "false"},
+                            {"plausible-lin", a.plausible_lin},
+                            {"plausible-ang", a.plausible_ang},
+                            {"plausible-temp", a.plausible_temp},
+                            {"plausible-speed", a.plausible_speed},
+                            {"plausible-other", a.plausible_other}};
   if (!a.since.empty()) o.emplace_back("since", a.since);
   try {
     return runtime::parameters_of(o);
@@ -362,6 +373,17 @@ void add_replay_command(CLI::App& app) {
   cmd->add_flag("--guard", args->guard,
                 "Hold an output's compensation off while, on recent probes, its residual is clearly larger than the "
                 "error without compensation and beyond the ACL (off by default; docs/adaptive.md)");
+  // The plausibility limits: the help texts of the one option table (runtime/parameter_options.cpp).
+  const std::pair<const char*, std::string*> plausible[] = {{"plausible-lin", &args->plausible_lin},
+                                                            {"plausible-ang", &args->plausible_ang},
+                                                            {"plausible-temp", &args->plausible_temp},
+                                                            {"plausible-speed", &args->plausible_speed},
+                                                            {"plausible-other", &args->plausible_other}};
+  for (const auto& [name, value] : plausible) {
+    const runtime::ParameterOption* o = runtime::find_parameter_option(name);
+    const std::string unit = o->unit == "-" ? "" : " [" + std::string(o->unit) + "]";
+    cmd->add_option("--" + std::string(name), *value, std::string(o->help) + unit)->capture_default_str();
+  }
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
   add_number_option(cmd, "--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)",

@@ -16,6 +16,14 @@ std::string describe(const char* field, double value, const char* constraint) {
   return s.str();
 }
 
+// A reading as printed in messages: shortest round-trip-ish text ("-1e+308", "1234.5").
+std::string reading(double v) {
+  std::ostringstream o;
+  o.precision(6);
+  o << v;
+  return o.str();
+}
+
 std::string hours(double s) {
   std::ostringstream o;
   o << s / 3600.0 << " h";
@@ -33,6 +41,7 @@ std::string_view to_string(ControllerEvent::Type type) {
     case ControllerEvent::Type::AclBreach: return "acl_breach";
     case ControllerEvent::Type::OutlierRejected: return "outlier_rejected";
     case ControllerEvent::Type::Guard: return "guard";
+    case ControllerEvent::Type::Implausible: return "implausible";
   }
   return "?";
 }
@@ -77,7 +86,27 @@ std::string AlcParameters::validate() const {
   if (!positive_finite(min_interval_s)) return describe("min_interval_s", min_interval_s, "must be positive and finite");
   if (!(max_interval_s >= min_interval_s) || std::isinf(max_interval_s))
     return describe("max_interval_s", max_interval_s, "must be finite and not below min_interval_s");
+  const std::pair<const char*, double> limits[] = {{"plausible_linear_um", plausible_linear_um},
+                                                   {"plausible_angular_um_per_m", plausible_angular_um_per_m},
+                                                   {"plausible_temperature_C", plausible_temperature_C},
+                                                   {"plausible_speed_rpm", plausible_speed_rpm},
+                                                   {"plausible_other", plausible_other}};
+  for (const auto& [field, value] : limits)
+    if (!positive_or_inf(value)) return describe(field, value, "must be positive or inf (inf: no limit)");
   return {};
+}
+
+double AlcParameters::plausible_limit(ErrorKind kind) const {
+  return kind == ErrorKind::Angular ? plausible_angular_um_per_m : plausible_linear_um;
+}
+
+double AlcParameters::plausible_limit(InputKind kind) const {
+  switch (kind) {
+    case InputKind::Temperature: return plausible_temperature_C;
+    case InputKind::Speed: return plausible_speed_rpm;
+    case InputKind::Other: return plausible_other;
+  }
+  return plausible_other;
 }
 
 probing::PaperScheduleOptions AlcParameters::schedule() const {
@@ -107,6 +136,7 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
   if (!schedule_) schedule_ = params_.schedule_policy();
   if (output_names_.empty()) throw std::invalid_argument("controller: no error outputs");
   for (const auto& name : output_names_) kinds_.push_back(error_kind(name));
+  for (const auto& name : input_names) input_kinds_.push_back(input_kind(name));
   state_.history.input_names = std::move(input_names);
   state_.history.inputs.resize(0, static_cast<Eigen::Index>(state_.history.input_names.size()));
   state_.prediction = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(output_names_.size()));
@@ -259,9 +289,39 @@ Eigen::VectorXd Controller::residuals(const Eigen::VectorXd& errors) const {
   return errors - state_.prediction;
 }
 
-bool Controller::breaches_acl(const ProbeMeasurement& probe) const {
+ProbeMeasurement Controller::plausible(const ProbeMeasurement& probe, std::vector<ControllerEvent>* events,
+                                       int* measured) const {
+  ProbeMeasurement p = probe;
+  if (measured) *measured = 0;
+  for (Eigen::Index i = 0; i < p.measured.size() && i < static_cast<Eigen::Index>(kinds_.size()); ++i) {
+    const double v = p.measured(i);
+    if (std::isnan(v)) continue;
+    if (measured) ++*measured;
+    const auto k = static_cast<std::size_t>(i);
+    const double limit = params_.plausible_limit(kinds_[k]);
+    if (std::abs(v) <= limit) continue;
+    p.measured(i) = std::numeric_limits<double>::quiet_NaN();
+    if (!events) continue;
+    ControllerEvent e;
+    e.type = ControllerEvent::Type::Implausible;
+    e.time_s = probe.time_s;
+    e.from = e.to = state_.phase;
+    e.output = output_names_[k];
+    e.value = v;
+    e.limit = limit;
+    const std::string unit(unit_of(kinds_[k]));
+    e.reason = "probe at t = " + reading(probe.time_s) + " s: " + output_names_[k] + " = " + reading(v) + " " + unit +
+               " is beyond the plausible ±" + reading(limit) + " " + unit +
+               " (a sensor fault?): set aside, the probe's other errors are learned";
+    events->push_back(std::move(e));
+  }
+  return p;
+}
+
+bool Controller::breaches_acl(const ProbeMeasurement& measurement) const {
   const auto n = static_cast<Eigen::Index>(output_names_.size());
-  if (probe.measured.size() != n || state_.prediction.size() != n) return false;
+  if (measurement.measured.size() != n || state_.prediction.size() != n) return false;
+  const ProbeMeasurement probe = plausible(measurement, nullptr);  // what on_probe would learn from
   const Eigen::VectorXd r = residuals(thermal_errors(probe));
   for (Eigen::Index i = 0; i < n; ++i)
     if (!std::isnan(r(i)) && std::abs(r(i)) > acl_of(static_cast<std::size_t>(i))) return true;
@@ -392,6 +452,15 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
     if (!std::isfinite(inputs[i]))
       return rejected("sample at t = " + std::to_string(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
                       "' is " + std::to_string(inputs[i]));
+  for (Eigen::Index i = 0; i < inputs.size(); ++i) {
+    const InputKind kind = input_kinds_[static_cast<std::size_t>(i)];
+    const double limit = params_.plausible_limit(kind);
+    if (std::abs(inputs[i]) <= limit) continue;
+    const std::string unit = kind == InputKind::Other ? "" : " " + std::string(unit_of(kind));
+    return rejected("sample at t = " + reading(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
+                    "' = " + reading(inputs[i]) + unit + " is beyond the plausible ±" + reading(limit) + unit +
+                    " (a sensor fault?): sample set aside");
+  }
   if (state_.started && !(time_s > state_.now_s))
     return rejected("sample time " + std::to_string(time_s) + " s is not after the previous one (" +
                     std::to_string(state_.now_s) + " s)");
@@ -437,12 +506,22 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       return rejected("probe at t = " + std::to_string(probe.time_s) + " s: compensation of " + output_names_[k] +
                       " is " + std::to_string(probe.compensation[i]));
   }
+  // A sensor fault on one output must not spoil the others: its reading is set aside, the rest learned.
   ControllerOutput out;
+  int measured = 0;
+  const ProbeMeasurement usable = plausible(probe, &out.events, &measured);
+  if (!out.events.empty() && static_cast<int>(out.events.size()) == measured) {
+    std::string why;
+    for (const ControllerEvent& e : out.events)
+      why += (why.empty() ? "" : ", ") + e.output + " = " + reading(e.value) + " beyond ±" + reading(e.limit);
+    return rejected("probe at t = " + reading(probe.time_s) + " s: no plausible error (" + why +
+                    "; a sensor fault?): probe set aside");
+  }
   const double t = probe.time_s;
   ProbeRecord record;
   record.time_s = t;
   record.sample_index = state_.history.time_s.size() - 1;
-  record.errors = thermal_errors(probe);
+  record.errors = thermal_errors(usable);
   state_.probes.push_back(record);
   ++state_.probe_cycles;
 

@@ -14,4 +14,14 @@ ErrorKind error_kind(std::string_view name) {
 
 std::string_view unit_of(ErrorKind kind) { return kind == ErrorKind::Angular ? "µm/m" : "µm"; }
 
+InputKind input_kind(std::string_view name) {
+  if (name.size() > 2 && name.substr(0, 2) == "T_") return InputKind::Temperature;
+  if (name.size() > 2 && name.substr(0, 2) == "n_") return InputKind::Speed;
+  return InputKind::Other;
+}
+
+std::string_view unit_of(InputKind kind) {
+  return kind == InputKind::Temperature ? "°C" : kind == InputKind::Speed ? "rpm" : "";
+}
+
 }  // namespace alc

@@ -460,6 +460,8 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
   result.usable = true;
   std::string messages;
   std::vector<Eigen::VectorXd> end_lags;  // lag states of each usable output after the last sample
+  int fitted = 0;                         // outputs with a fit (usable or not), not set aside for too few data
+  std::string unmeasured;                 // the outputs set aside for too few measurements, with why
 
   for (Index o = 0; o < n_out; ++o) {
     const std::string& name = output_names[static_cast<std::size_t>(o)];
@@ -495,10 +497,18 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
       model.outputs.push_back(om);
     };
     if (m < options.min_measurements) {
-      unusable("only " + std::to_string(m) + " measurements in the window (min_measurements = " +
-               std::to_string(options.min_measurements) + ")");
+      // Too few measurements of this output alone (not measured, or its readings set aside as a sensor
+      // fault): it gets no model (predicts 0, not compensated) and does not hold back the others; the
+      // fit is usable when some other output's is.
+      sum.message = "only " + std::to_string(m) + " measurements in the window (min_measurements = " +
+                    std::to_string(options.min_measurements) + ")";
+      unmeasured += (unmeasured.empty() ? "" : "; ") + name + ": " + sum.message;
+      result.outputs.push_back(sum);
+      model.outputs.push_back(om);
+      end_lags.emplace_back();  // no inputs, no lags
       continue;
     }
+    ++fitted;
     if (candidates.empty()) {
       std::string names;
       for (const std::string& c : constant) names += (names.empty() ? "" : ", ") + c;
@@ -515,7 +525,9 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
     const OutputModel* kept = nullptr;
     if (structure.input_names == history.input_names && structure.base_step_s == options.base_step_s) {
       for (const OutputModel& prior : structure.outputs)
-        if (prior.name == name && prior.parameters.size() == 1 + static_cast<Index>(prior.inputs.size()) * prior.poles.size())
+        // An output without inputs had too few measurements last time: its structure is searched anew.
+        if (prior.name == name && !prior.inputs.empty() &&
+            prior.parameters.size() == 1 + static_cast<Index>(prior.inputs.size()) * prior.poles.size())
           kept = &prior;
     }
     std::vector<int> kept_grid;  // grid index of each kept pole, empty if one is off the grid
@@ -680,7 +692,14 @@ FitResult refit(const InputHistory& history, const std::vector<std::string>& out
     model.outputs.push_back(om);
   }
 
-  result.message = result.usable ? "identified " + std::to_string(n_out) + " outputs" : messages;
+  if (fitted == 0) {
+    result.usable = false;
+    messages = unmeasured + (messages.empty() ? "" : "; " + messages);
+  }
+  result.message = !result.usable      ? messages
+                   : unmeasured.empty() ? "identified " + std::to_string(n_out) + " outputs"
+                                        : "identified " + std::to_string(fitted) + " of " + std::to_string(n_out) +
+                                              " outputs; not compensated (" + unmeasured + ")";
   result.model = std::move(model);
   if (result.usable) {
     // The state of ModelPredictor(model) after every sample (layout in thermal_model.hpp), built

@@ -1,5 +1,6 @@
 #include "runtime/driver.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "common/log.hpp"
@@ -70,8 +71,16 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
     for (Observer* o : observers_) o->on_rejected(last_ ? *last_ : none, &probe, out.reason);
     return out;
   }
-  for (const ControllerEvent& e : out.events)
-    log::get("runtime")->debug("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
+  for (const ControllerEvent& e : out.events) {
+    // A sensor fault is told once per output at warn (it may last for every probe of the run).
+    const bool first_fault = e.type == ControllerEvent::Type::Implausible &&
+                             std::find(implausible_logged_.begin(), implausible_logged_.end(), e.output) ==
+                                 implausible_logged_.end();
+    if (first_fault) implausible_logged_.push_back(e.output);
+    log::get("runtime")->log(first_fault ? spdlog::level::warn : spdlog::level::debug, "t = {} s: {}: {}{}", e.time_s,
+                             to_string(e.type), e.reason,
+                             first_fault ? " (later readings of " + e.output + " set aside: log level debug)" : "");
+  }
   notify(Cycle::Kind::Probe, &probe, out, before);
   return out;
 }

@@ -116,15 +116,17 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
   rep.Pd = rep.duration_s > 0 ? probing::productivity_percent(rep.M, rep.duration_s)
                               : std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = scenario_.output_names.size();
-  // The indicators of each output over the evaluated rows where it was measured, for predictions
+  // The indicators of each output over the evaluated rows where it was measured plausibly (a reading
+  // the controller set aside as a sensor fault is no error to judge it by), for predictions
   // prediction(i, k) at evaluated row i.
   const auto indicators = [&](const auto& prediction) {
     std::vector<OutputIndicators> outs;
     for (std::size_t k = 0; k < n; ++k) {
+      const double limit = controller.parameters().plausible_limit(error_kind(scenario_.output_names[k]));
       std::vector<double> measured, predicted;
       for (std::size_t i = 0; i < time_s_.size(); ++i) {
         const double m = measured_[i * n + k];
-        if (std::isnan(m)) continue;
+        if (!(std::abs(m) <= limit)) continue;  // NaN: not measured
         measured.push_back(m);
         predicted.push_back(prediction(i, k));
       }

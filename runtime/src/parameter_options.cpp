@@ -53,6 +53,19 @@ const std::vector<ParameterOption>& parameter_options() {
       {"max-interval", "h", kNumber, "Adaptive: longest Post-CP interval", Stage::CpEnd},
       {"guard", "-", kFlag, "Hold an output's compensation off while it is clearly worse than none on recent probes",
        Stage::CpEnd},
+      {"plausible-lin", "µm", kNumberOrInf,
+       "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start},
+      {"plausible-ang", "µm/m", kNumberOrInf,
+       "A probe's angular error beyond ± this is a sensor fault: set aside for that output (inf: no limit)",
+       Stage::Start},
+      {"plausible-temp", "°C", kNumberOrInf,
+       "A temperature input (T_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
+       Stage::Start},
+      {"plausible-speed", "rpm", kNumberOrInf,
+       "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start},
+      {"plausible-other", "-", kNumberOrInf,
+       "Any other input (machine states, ...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
+       Stage::Start},
   };
   return options;
 }
@@ -86,6 +99,11 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   else if (name == "uncertainty-fraction") p.uncertainty_fraction = number(1.0);
   else if (name == "min-interval") p.min_interval_s = number(3600.0);
   else if (name == "max-interval") p.max_interval_s = number(3600.0);
+  else if (name == "plausible-lin") p.plausible_linear_um = number_or_inf(1.0);
+  else if (name == "plausible-ang") p.plausible_angular_um_per_m = number_or_inf(1.0);
+  else if (name == "plausible-temp") p.plausible_temperature_C = number_or_inf(1.0);
+  else if (name == "plausible-speed") p.plausible_speed_rpm = number_or_inf(1.0);
+  else if (name == "plausible-other") p.plausible_other = number_or_inf(1.0);
   else if (name == "schedule") {
     if (text == "paper") p.schedule_kind = AlcParameters::Schedule::Paper;
     else if (text == "adaptive") p.schedule_kind = AlcParameters::Schedule::Adaptive;

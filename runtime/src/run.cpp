@@ -60,6 +60,16 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
                      {"min_interval_s", number(p.min_interval_s)},
                      {"max_interval_s", number(p.max_interval_s)}};
   if (p.guard) j["guard"] = true;
+  // Added with the plausibility limits: present only where a limit differs from its default.
+  const AlcParameters defaults;
+  const std::pair<const char*, double AlcParameters::*> limits[] = {
+      {"linear_um", &AlcParameters::plausible_linear_um},
+      {"angular_um_per_m", &AlcParameters::plausible_angular_um_per_m},
+      {"temperature_C", &AlcParameters::plausible_temperature_C},
+      {"speed_rpm", &AlcParameters::plausible_speed_rpm},
+      {"other", &AlcParameters::plausible_other}};
+  for (const auto& [key, field] : limits)
+    if (p.*field != defaults.*field) j["plausible"][key] = number(p.*field);
   return j;
 }
 

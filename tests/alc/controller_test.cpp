@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 #include "alc/controller.hpp"
 
@@ -675,4 +676,89 @@ TEST_CASE("controller: the guard holds compensation off where the model does wor
       CHECK(out.prediction == model);
     }
   }
+}
+
+TEST_CASE("controller: an implausible error is set aside for its output alone, the other output is learned") {
+  AlcParameters p = test_parameters();
+  Plant plant;
+  Controller c({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p);
+  std::vector<ControllerEvent> implausible;
+  int probes = 0, updates = 0;
+  double t = 0.0;
+  for (; t < 2.5 * kHour; t += kMinute) {
+    plant.advance(t);
+    const auto out = c.on_sample(t, plant.inputs(t));
+    REQUIRE(out.accepted);
+    if (t < out.next_probe_due_s) continue;
+    Eigen::VectorXd measured = plant.errors();
+    measured(1) = 1e300;  // a sensor fault: finite, absurd
+    ProbeMeasurement m{t, measured, {}};
+    CHECK_FALSE(c.breaches_acl(m));  // judged on what the probe would learn from
+    const auto pout = c.on_probe(m);
+    REQUIRE(pout.accepted);
+    ++probes;
+    for (const auto& e : pout.events) {
+      if (e.type == ControllerEvent::Type::Implausible) implausible.push_back(e);
+      if (e.type == ControllerEvent::Type::ModelUpdate) ++updates;
+    }
+  }
+  REQUIRE(probes > 6);
+  REQUIRE(implausible.size() == static_cast<std::size_t>(probes));
+  CHECK(implausible[0].output == "E_A0C");
+  CHECK(implausible[0].value == 1e300);
+  CHECK(implausible[0].limit == p.plausible_angular_um_per_m);
+  CHECK_THAT(implausible[0].reason, Catch::Matchers::Contains("E_A0C = 1e+300 µm/m is beyond the plausible ±1000 µm/m"));
+  // E_X0C is learned (CP ended with a model), E_A0C has none: not compensated.
+  CHECK(updates >= 1);
+  CHECK(c.phase() == Phase::PostCalibration);
+  for (const auto& probe : c.state().probes) CHECK(std::isnan(probe.errors(1)));
+  const auto now = c.on_tick(t);
+  CHECK_THAT(now.prediction[0], Catch::Matchers::WithinAbs(plant.errors()[0], 0.5));
+  CHECK(now.prediction[1] == 0.0);
+
+  // A probe with no plausible error left is rejected, naming each, and changes nothing.
+  const int cycles = c.state().probe_cycles;
+  Eigen::VectorXd both(2);
+  both << -2000.0, std::numeric_limits<double>::quiet_NaN();
+  const auto rejected = c.on_probe({t, both, {}});
+  CHECK_FALSE(rejected.accepted);
+  CHECK_THAT(rejected.reason, Catch::Matchers::Contains("no plausible error (E_X0C = -2000 beyond ±1000"));
+  CHECK(c.state().probe_cycles == cycles);
+}
+
+TEST_CASE("controller: an implausible input (a sensor fault) rejects the sample, per input kind") {
+  AlcParameters p = test_parameters();
+  Controller c({"T_ENV", "n_C", "CF_on"}, {"E_X0C"}, p);
+  Eigen::VectorXd u(3);
+  u << 21.0, 1000.0, 1.0;
+  REQUIRE(c.on_sample(0.0, u).accepted);
+  const auto expect_rejected = [&](Eigen::Index i, double v, const std::string& reason) {
+    Eigen::VectorXd bad = u;
+    bad(i) = v;
+    const auto out = c.on_sample(60.0, bad);
+    CHECK_FALSE(out.accepted);
+    CHECK_THAT(out.reason, Catch::Matchers::Contains(reason));
+  };
+  expect_rejected(0, -1e308, "input 'T_ENV' = -1e+308 °C is beyond the plausible ±200 °C");
+  expect_rejected(0, 250.0, "input 'T_ENV' = 250 °C is beyond the plausible ±200 °C");
+  expect_rejected(1, 2e5, "input 'n_C' = 200000 rpm is beyond the plausible ±100000 rpm");
+  expect_rejected(2, 5e6, "input 'CF_on' = 5e+06 is beyond the plausible ±1e+06 (a sensor fault?)");
+  CHECK(c.state().samples == 1);
+  Eigen::VectorXd hot = u;
+  hot(0) = 199.0;  // within the limit
+  CHECK(c.on_sample(60.0, hot).accepted);
+  // inf: no limit.
+  p.plausible_temperature_C = kInf;
+  Controller unlimited({"T_ENV", "n_C", "CF_on"}, {"E_X0C"}, p);
+  hot(0) = 1e300;
+  CHECK(unlimited.on_sample(0.0, hot).accepted);
+}
+
+TEST_CASE("controller: plausibility limits must be positive or inf") {
+  AlcParameters p;
+  p.plausible_linear_um = 0.0;
+  CHECK_THROWS_WITH(Controller({"T"}, {"E_X0C"}, p), "plausible_linear_um = 0: must be positive or inf (inf: no limit)");
+  p = AlcParameters{};
+  p.plausible_speed_rpm = std::numeric_limits<double>::quiet_NaN();
+  CHECK_THROWS_WITH(Controller({"T"}, {"E_X0C"}, p), Catch::Matchers::Contains("plausible_speed_rpm = nan"));
 }

@@ -1,10 +1,14 @@
 // Issue 13 (reliability): what the CLI does with a history and data that changed under it.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "../cli_support.hpp"
 #include "scenarios/scenario.hpp"
@@ -116,5 +120,79 @@ TEST_CASE("resume on an empty file or a dangling symbolic link is refused and cr
   std::size_t entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
   CHECK(entries == 2);  // no -wal, -shm or journal files either
+  fs::remove_all(dir);
+}
+
+TEST_CASE("an absurd but finite error column (-1e308, a sensor fault) is set aside for that output; the other "
+          "outputs are learned as in the clean run (issue 13 item 3)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "implausible";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path clean = dir / "clean.csv", faulty = dir / "faulty.csv";
+  REQUIRE(run("simulate --case A --out \"" + clean.string() + "\"").exit_code == 0);
+  scenarios::Scenario s = scenarios::read_scenario_csv(clean);
+  const auto names = s.output_names;
+  const auto x = static_cast<Eigen::Index>(std::find(names.begin(), names.end(), "E_X0C") - names.begin());
+  REQUIRE(x < static_cast<Eigen::Index>(names.size()));
+  int replaced = 0;
+  for (Eigen::Index r = 0; r < s.outputs.rows(); ++r)
+    if (!std::isnan(s.outputs(r, x))) {
+      s.outputs(r, x) = -1e308;
+      ++replaced;
+    }
+  REQUIRE(replaced > 100);
+  scenarios::write_scenario_csv(faulty, s);
+
+  const CliRun good = run("replay \"" + clean.string() + "\" --json");
+  const CliRun bad = run("replay \"" + faulty.string() + "\" --json");
+  REQUIRE(good.exit_code == 0);
+  REQUIRE(bad.exit_code == 0);
+  const auto g = nlohmann::json::parse(good.out), b = nlohmann::json::parse(bad.out);
+  CHECK(b.at("updates").get<int>() > 0);
+  CHECK(b.at("updates") == g.at("updates"));
+  // Every other output: the indicators of the clean run, bit for bit; the faulty one has none.
+  for (const std::string& name : names) {
+    INFO(name);
+    if (name == "E_X0C") {
+      CHECK(b.at("outputs").at(name).at("measurements") == 0);
+      continue;
+    }
+    CHECK(b.at("outputs").at(name) == g.at("outputs").at(name));
+    CHECK(b.at("outputs").at(name).at("P99").is_number());
+  }
+  // The event names the output, the value and the limit; once per output at warn.
+  CHECK_THAT(bad.err, Catch::Matchers::Contains("E_X0C = -1e+308 µm is beyond the plausible ±1000 µm"));
+  CHECK(bad.err.find("E_X0C = -1e+308", bad.err.find("E_X0C = -1e+308") + 1) == std::string::npos);
+
+  // A limit below the readings sets them aside too; a loose limit value is a usage error.
+  const CliRun tight = run("replay \"" + clean.string() + "\" --json --plausible-ang 20");
+  REQUIRE(tight.exit_code == 0);
+  CHECK_THAT(tight.err, Catch::Matchers::Contains("is beyond the plausible ±20 µm/m"));
+  for (const std::string bad_limit : {"-1", "nan", "0x10", "0"}) {
+    const CliRun r = run("replay --case A --plausible-lin " + bad_limit);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("plausible"));
+  }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("an absurd temperature reading (a sensor fault) sets the sample aside with its reason (issue 13 item 3)") {
+  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "implausible_input";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path clean = dir / "clean.csv", faulty = dir / "faulty.csv";
+  REQUIRE(run("simulate --case A --out \"" + clean.string() + "\"").exit_code == 0);
+  scenarios::Scenario s = scenarios::read_scenario_csv(clean);
+  const auto t = static_cast<Eigen::Index>(
+      std::find(s.input_names.begin(), s.input_names.end(), "T_ENV") - s.input_names.begin());
+  REQUIRE(t < static_cast<Eigen::Index>(s.input_names.size()));
+  s.inputs(5000, t) = -1e308;  // one sample, after CP
+  scenarios::write_scenario_csv(faulty, s);
+  const CliRun r = run("replay \"" + faulty.string() + "\" --json");
+  REQUIRE(r.exit_code == 0);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("input 'T_ENV' = -1e+308 °C is beyond the plausible ±200 °C"));
+  const auto j = nlohmann::json::parse(r.out);
+  CHECK(j.at("updates").get<int>() > 0);
+  for (const std::string& name : s.output_names) CHECK(j.at("outputs").at(name).at("P99").is_number());
   fs::remove_all(dir);
 }

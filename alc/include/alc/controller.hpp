@@ -10,8 +10,10 @@
 // When to probe is asked of a schedule policy (probing/schedule.hpp): by default seed 004's
 // PaperSchedule built from the parameters below; another policy can be given to the constructor.
 //
-// Bad data never throws here: a sample or probe that cannot be used (wrong size, a non-finite input,
-// a time that goes backwards) returns status Rejected with the reason and changes nothing.
+// Bad data never throws here: a sample or probe that cannot be used (wrong size, a non-finite or
+// implausible input, a time that goes backwards) returns status Rejected with the reason and changes
+// nothing. A probe's implausible error (beyond AlcParameters::plausible_*) is set aside for its output
+// alone, with an Implausible event; the probe is rejected only when no plausible error is left.
 //
 // Memory is bounded by the learning window (docs/runtime.md): after CP the controller keeps the input
 // samples of the last learning_window_s plus a warm-up of kWarmupTimeConstants x the longest time
@@ -66,9 +68,21 @@ struct AlcParameters {
   bool guard = false;                      // hold an output's compensation off while, on recent Post-CP probes,
                                            // it left a clearly larger error than no compensation; off by default:
                                            // on the held-out cases it made things worse (docs/adaptive.md)
+  // Plausibility (docs/runtime.md, "Plausibility"): a finite reading beyond these magnitudes is a sensor
+  // fault, not a thermal error. A probe's error beyond its limit is set aside for that output (an
+  // Implausible event; the other outputs of the probe are learned); an input beyond its limit rejects
+  // the sample. inf: no limit.
+  double plausible_linear_um = 1000.0;          // [µm] |measured| of a linear error (1 mm)
+  double plausible_angular_um_per_m = 1000.0;   // [µm/m] |measured| of an angular error (0.057°)
+  double plausible_temperature_C = 200.0;       // [°C] |value| of a temperature input (InputKind::Temperature)
+  double plausible_speed_rpm = 100000.0;        // [rpm] |value| of a speed input (InputKind::Speed)
+  double plausible_other = 1e6;                 // [-] |value| of any other input (machine states, …)
 
   // Empty if valid, else the first violated constraint naming the field and value.
   std::string validate() const;
+  // The largest plausible magnitude of an error of `kind` [µm] / [µm/m], of an input of `kind`.
+  double plausible_limit(ErrorKind kind) const;
+  double plausible_limit(InputKind kind) const;
   // The probe schedule of these parameters (seed 004's fixed intervals per phase).
   probing::PaperScheduleOptions schedule() const;
   // The policy of schedule_kind: PaperSchedule(schedule()) or AdaptiveSchedule.
@@ -84,15 +98,18 @@ struct ProbeMeasurement {
 };
 
 struct ControllerEvent {
-  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach, OutlierRejected, Guard };
+  enum class Type { PhaseChange, ProbeIntervalChange, ModelUpdate, ModelRejected, AclBreach, OutlierRejected, Guard,
+                    Implausible };
   Type type = Type::PhaseChange;
   double time_s = 0.0;           // [s]
   Phase from = Phase::Calibration;
   Phase to = Phase::Calibration;
   double interval_s = 0.0;       // [s] new probe interval (ProbeIntervalChange)
-  std::string output;            // error name (AclBreach)
-  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the model's recent residual (Guard)
-  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the recent error without compensation (Guard)
+  std::string output;            // error name (AclBreach, Guard, Implausible)
+  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the model's recent residual (Guard);
+                                 // the reading set aside (Implausible)
+  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the recent error without compensation (Guard);
+                                 // the plausibility limit (Implausible)
   std::string reason;            // human-readable why
 };
 std::string_view to_string(ControllerEvent::Type type);
@@ -162,7 +179,8 @@ class Controller {
   // it; a sample that breaks this is rejected (accepted = false, reason) and changes nothing.
   ControllerOutput on_sample(double time_s, const Eigen::VectorXd& inputs);
   // A probe cycle finished at `probe.time_s` (not before the latest sample; NaN = not measured).
-  // A probe that cannot be used is rejected (accepted = false, reason) and changes nothing.
+  // A probe that cannot be used is rejected (accepted = false, reason) and changes nothing; an error
+  // beyond its plausibility limit is treated as not measured (an Implausible event names it).
   ControllerOutput on_probe(const ProbeMeasurement& probe);
   // Time passes without data: phase ends and periodic updates that are due happen here.
   ControllerOutput on_tick(double time_s);
@@ -205,6 +223,10 @@ class Controller {
   // current prediction (NaN where not measured).
   Eigen::VectorXd thermal_errors(const ProbeMeasurement& probe) const;
   Eigen::VectorXd residuals(const Eigen::VectorXd& errors) const;
+  // The probe with every error beyond its plausibility limit set aside (NaN), and an Implausible
+  // event for each into `events` when given; `measured` counts the errors the probe measured.
+  ProbeMeasurement plausible(const ProbeMeasurement& probe, std::vector<ControllerEvent>* events,
+                             int* measured = nullptr) const;
   // Drops samples and probes that no identification can use any more (bounded memory).
   void trim();
   // keep_structure: refit the parameters of the current model's structure (refit()) instead of
@@ -213,6 +235,7 @@ class Controller {
 
   std::vector<std::string> output_names_;
   std::vector<ErrorKind> kinds_;
+  std::vector<InputKind> input_kinds_;
   AlcParameters params_;
   SchedulePtr schedule_;
   ControllerState state_;

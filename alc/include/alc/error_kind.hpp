@@ -16,4 +16,12 @@ ErrorKind error_kind(std::string_view name);
 // Unit of an error kind as printed in tables: "µm" or "µm/m".
 std::string_view unit_of(ErrorKind kind);
 
+// Kinds of model inputs, told by the column name (docs/design.md, "Scenario CSV"): "T_…" a
+// temperature [°C], "n_…" a speed [rpm], anything else another quantity (0/1 machine states, …).
+// The kind only chooses the plausibility limit of a reading (AlcParameters::plausible_*).
+enum class InputKind { Temperature, Speed, Other };
+InputKind input_kind(std::string_view name);
+// "°C", "rpm" or "" (no unit known).
+std::string_view unit_of(InputKind kind);
+
 }  // namespace alc

@@ -122,7 +122,9 @@ struct OutputFitSummary {
 };
 
 struct FitResult {
-  bool usable = false;                       // true when every output got a usable fit
+  bool usable = false;                       // true when every output with min_measurements got a usable fit
+                                             // and at least one did; an output with fewer gets no model
+                                             // (predicts 0) and its summary says why
   std::string message;                       // summary; reason when not usable
   ThermalModel model;                        // valid only when usable
   std::vector<OutputFitSummary> outputs;

@@ -121,6 +121,7 @@ class Driver {
   bool maps_any_ = false;          // some output is one of the seven location errors
   std::optional<Sample> last_;
   double identification_s_ = 0.0;
+  std::vector<std::string> implausible_logged_;  // outputs whose implausible reading was logged at warn
 };
 
 }  // namespace alc::runtime
