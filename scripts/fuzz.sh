@@ -17,7 +17,7 @@ rm -rf "$out"
 mkdir -p "$out"
 printf '%-14s %12s %8s %8s %10s %8s %9s\n' target executions cov ft corpus "time[s]" findings
 findings_total=0
-for target in scenario_csv nc_jsonl machine_toml grid_toml run_state; do
+for target in scenario_csv nc_jsonl machine_toml grid_toml run_state supervisor_payload supervisor_toml; do
   mkdir -p "$out/corpus_$target"
   dict=()
   [ -f "$ALC_ROOT/fuzz/$target.dict" ] && dict=(-dict="$ALC_ROOT/fuzz/$target.dict")

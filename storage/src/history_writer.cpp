@@ -155,7 +155,7 @@ namespace detail {
 std::unique_ptr<Database> open_for_writing(const std::filesystem::path& file, const WriterOptions& options) {
   int version_found = 0;
   auto db = open_database(file, {OpenMode::Write, options.busy_timeout_ms, options.create_directories}, version_found);
-  const std::string mode = db->query_text("PRAGMA journal_mode = WAL");
+  const std::string mode = db->query_text_when_free("PRAGMA journal_mode = WAL");  // a concurrent creator: wait
   if (mode != "wal")
     throw StorageError(StorageErrorKind::Io, file, "cannot switch to the WAL journal (journal_mode is '" + mode + "')");
   db->exec(options.durability == Durability::Power ? "PRAGMA synchronous = FULL" : "PRAGMA synchronous = NORMAL");

@@ -6,9 +6,11 @@
 #include <array>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <thread>
 
 #include "common/byte_codec.hpp"
 #include "common/number_text.hpp"
@@ -152,6 +154,34 @@ void require_sound_pages(Database& db, const fs::path& file) {
                            "); left untouched, not written to; 'alc db check' lists the damage");
 }
 
+// The checks of an opened file through SQLite: application_id, schema version, tables, and for a
+// writer the pages. Sets version_found (0 = an empty database, Write mode only).
+void check_schema(Database& db, const fs::path& file, bool write, const HeaderFacts& facts, int& version_found) {
+  const auto application_id = static_cast<std::int32_t>(db.query_int("PRAGMA application_id"));
+  const auto version = static_cast<int>(db.query_int("PRAGMA user_version"));
+  if (application_id != 0 && application_id != kApplicationId) refuse_foreign_id(file, application_id);
+  if (application_id == 0) {
+    Statement tables(db, "SELECT name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' ORDER BY name LIMIT 5");
+    std::string names;
+    while (tables.step()) names += (names.empty() ? "" : ", ") + tables.column_text(0);
+    if (!names.empty())
+      throw StorageError(StorageErrorKind::ForeignDatabase, file,
+                         "an SQLite database of another program (no ALC application_id; holds " + names +
+                             "); left untouched");
+    if (!write) throw StorageError(StorageErrorKind::NotADatabase, file, "an empty SQLite database, not an ALC history");
+    if (facts.exists && !facts.empty) require_sound_pages(db, file);
+    version_found = 0;
+    return;
+  }
+  if (version > kSchemaVersion) refuse_newer(file, version);
+  if (version < 1)
+    throw StorageError(StorageErrorKind::Corrupt, file, "ALC's application_id but no schema version");
+  require_tables(db, file, version);
+  // A writer checks the pages before it changes anything (journal mode, migration, records).
+  if (write) require_sound_pages(db, file);
+  version_found = version;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -227,6 +257,18 @@ std::int64_t Database::query_int(std::string_view sql) {
 std::string Database::query_text(std::string_view sql) {
   Statement st(*this, sql);
   return st.step() ? st.column_text(0) : std::string();
+}
+
+std::string Database::query_text_when_free(std::string_view sql) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(busy_timeout_ms_);
+  for (int attempt = 1;; ++attempt) {
+    try {
+      return query_text(sql);
+    } catch (const StorageError& e) {
+      if (e.kind != StorageErrorKind::Locked || std::chrono::steady_clock::now() >= deadline) throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(attempt, 20)));
+  }
 }
 
 bool Database::table_exists(std::string_view table) {
@@ -447,32 +489,20 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
                              "directory (" + e.reason + ")");
     }
   }
-  // Authoritative checks through SQLite (the header may be stale while a WAL holds changes).
-  const auto application_id = static_cast<std::int32_t>(db->query_int("PRAGMA application_id"));
-  const auto version = static_cast<int>(db->query_int("PRAGMA user_version"));
-  if (application_id != 0 && application_id != kApplicationId) refuse_foreign_id(file, application_id);
-  if (application_id == 0) {
-    Statement tables(*db, "SELECT name FROM sqlite_schema WHERE name NOT LIKE 'sqlite_%' ORDER BY name LIMIT 5");
-    std::string names;
-    while (tables.step()) names += (names.empty() ? "" : ", ") + tables.column_text(0);
-    if (!names.empty())
-      throw StorageError(StorageErrorKind::ForeignDatabase, file,
-                         "an SQLite database of another program (no ALC application_id; holds " + names +
-                             "); left untouched");
-    if (!write) throw StorageError(StorageErrorKind::NotADatabase, file, "an empty SQLite database, not an ALC history");
-    if (facts.exists && !facts.empty) require_sound_pages(*db, file);
-    version_found = 0;
-    return db;
+  // Authoritative checks through SQLite (the header may be stale while a WAL holds changes), all in
+  // one read transaction: a writer creating the schema at this moment (in one transaction) is seen
+  // either not at all or complete, never as tables without ALC's application_id.
+  db->exec("BEGIN");
+  try {
+    check_schema(*db, file, write, facts, version_found);
+  } catch (...) {
+    sqlite3_exec(db->handle(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
   }
-  if (version > kSchemaVersion) refuse_newer(file, version);
-  if (version < 1)
-    throw StorageError(StorageErrorKind::Corrupt, file, "ALC's application_id but no schema version");
-  require_tables(*db, file, version);
-  // A writer checks the pages before it changes anything (journal mode, migration, records).
-  if (write) require_sound_pages(*db, file);
-  version_found = version;
+  db->exec("COMMIT");
   return db;
 }
+
 
 // ---------------------------------------------------------------------------------------------
 // Blobs of f64 values: the bytes of common::ByteWriter::f64, one after the other, no count.

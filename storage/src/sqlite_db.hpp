@@ -67,6 +67,10 @@ class Database {
   std::string query_text(std::string_view sql);
   bool table_exists(std::string_view table);
   bool column_exists(std::string_view table, std::string_view column);
+  // query_text(sql) for a statement that SQLite answers with SQLITE_BUSY at once, without its busy
+  // handler, while another connection holds a lock (PRAGMA journal_mode = WAL on a file another writer
+  // is creating): retried until the busy timeout, then the Locked error.
+  std::string query_text_when_free(std::string_view sql);
   // Throws a StorageError for result code `rc` of an operation described by `what`.
   [[noreturn]] void fail(int rc, const std::string& what);
 

@@ -79,7 +79,7 @@ class Supervisor::Tap : public runtime::Observer {
         j["to"] = std::string(to_string(e.to));
       }
       if (e.type == ControllerEvent::Type::ProbeIntervalChange) j["interval_s"] = number_or_null(e.interval_s);
-      if (e.type == ControllerEvent::Type::AclBreach) {
+      if (e.type == ControllerEvent::Type::AclBreach || e.type == ControllerEvent::Type::Implausible) {
         j["output"] = e.output;
         j["value"] = e.value;
         j["limit"] = e.limit;

@@ -689,11 +689,17 @@ TEST_CASE("controller: an implausible error is set aside for its output alone, t
     plant.advance(t);
     const auto out = c.on_sample(t, plant.inputs(t));
     REQUIRE(out.accepted);
+    for (const auto& e : out.events) updates += e.type == ControllerEvent::Type::ModelUpdate;
     if (t < out.next_probe_due_s) continue;
     Eigen::VectorXd measured = plant.errors();
     measured(1) = 1e300;  // a sensor fault: finite, absurd
     ProbeMeasurement m{t, measured, {}};
-    CHECK_FALSE(c.breaches_acl(m));  // judged on what the probe would learn from
+    // Judged on what the probe would learn from: as if E_A0C had not been measured.
+    ProbeMeasurement without = m;
+    without.measured(1) = std::numeric_limits<double>::quiet_NaN();
+    CHECK(c.breaches_acl(m) == c.breaches_acl(without));
+    without.measured(0) = 1e300;  // only an implausible reading left: no breach
+    CHECK_FALSE(c.breaches_acl(without));
     const auto pout = c.on_probe(m);
     REQUIRE(pout.accepted);
     ++probes;

@@ -77,10 +77,11 @@ TEST_CASE("two writers started at once on a new file both open it: the schema is
   ScratchDir dir;
   constexpr int kRounds = 60;
   int failed_rounds = 0;
+  std::string reasons;
   for (int round = 0; round < kRounds; ++round) {
     const auto file = dir / ("new_" + std::to_string(round) + ".sqlite");
     const std::vector<std::string> failures = open_at_once(file, 2);
-    for (const std::string& f : failures) UNSCOPED_INFO("round " << round << ": " << f);
+    for (const std::string& f : failures) reasons += "round " + std::to_string(round) + ": " + f + "\n";
     if (!failures.empty()) {
       ++failed_rounds;
       continue;
@@ -89,5 +90,6 @@ TEST_CASE("two writers started at once on a new file both open it: the schema is
     CHECK(HistoryReader(file).runs().size() == 2);
     CHECK(check_history(file).ok());
   }
+  INFO(reasons);
   CHECK(failed_rounds == 0);
 }
