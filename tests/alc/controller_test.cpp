@@ -678,7 +678,7 @@ TEST_CASE("controller: the guard holds compensation off where the model does wor
   }
 }
 
-TEST_CASE("controller: an implausible error is set aside for its output alone, the other output is learned") {
+TEST_CASE("controller: an implausible error is set aside for its output alone and the other output is learned") {
   AlcParameters p = test_parameters();
   Plant plant;
   Controller c({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p);
@@ -732,7 +732,7 @@ TEST_CASE("controller: an implausible error is set aside for its output alone, t
   CHECK(c.state().probe_cycles == cycles);
 }
 
-TEST_CASE("controller: an implausible input (a sensor fault) rejects the sample, per input kind") {
+TEST_CASE("controller: an implausible input (a sensor fault) rejects the sample with a limit per input kind") {
   AlcParameters p = test_parameters();
   Controller c({"T_ENV", "n_C", "CF_on"}, {"E_X0C"}, p);
   Eigen::VectorXd u(3);

@@ -123,8 +123,8 @@ TEST_CASE("resume on an empty file or a dangling symbolic link is refused and cr
   fs::remove_all(dir);
 }
 
-TEST_CASE("an absurd but finite error column (-1e308, a sensor fault) is set aside for that output; the other "
-          "outputs are learned as in the clean run (issue 13 item 3)") {
+TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set aside for that output and the "
+          "other outputs are learned as in the clean run (issue 13 item 3)") {
   const fs::path dir = alc_test::work_dir("reliability_cli_test") / "implausible";
   fs::remove_all(dir);
   fs::create_directories(dir);

@@ -72,7 +72,7 @@ std::vector<std::string> open_at_once(const std::filesystem::path& file, int wri
 
 }  // namespace
 
-TEST_CASE("two writers started at once on a new file both open it: the schema is created once, the other waits",
+TEST_CASE("two writers started at once on a new file both open it: the schema is created once and the other waits",
           "[storage]") {
   ScratchDir dir;
   constexpr int kRounds = 60;

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "runtime/run.hpp"
 #include "study/grid.hpp"
 
 using namespace alc;
@@ -84,4 +85,25 @@ TEST_CASE("a grid survives its canonical form") {
   const Grid back = Grid::from_canonical(g.canonical(), "x");
   CHECK(back.canonical() == g.canonical());
   CHECK(back.sets().size() == 2191);
+}
+
+TEST_CASE("the plausibility limits are grid keys like every replay option, and a run's identity holds them only when "
+          "they differ from the defaults") {
+  const Grid g = parse_grid("plausible-lin = [500, \"inf\"]\n[fixed]\nplausible-temp = 120\n", "g.toml");
+  const auto sets = g.sets();
+  REQUIRE(sets.size() == 2);
+  CHECK(sets[0].error.empty());
+  CHECK(sets[0].parameters.plausible_linear_um == 500.0);
+  CHECK(std::isinf(sets[1].parameters.plausible_linear_um));
+  CHECK(sets[1].parameters.plausible_temperature_C == 120.0);
+  CHECK(sets[1].parameters.plausible_angular_um_per_m == AlcParameters{}.plausible_angular_um_per_m);
+  CHECK_THAT(error_of("plausible-ang = [-1]\n"), Catch::Matchers::Contains("plausible-ang"));
+  CHECK_THAT(parse_grid("plausible-speed = [0]\n", "g.toml").sets().at(0).error,
+             Catch::Matchers::Contains("plausible_speed_rpm = 0"));
+  // The identity (config_json) of a run with the defaults is that of a run before the limits existed.
+  CHECK_FALSE(runtime::canonical_parameters(AlcParameters{}).contains("plausible"));
+  const auto j = runtime::canonical_parameters(sets[1].parameters);
+  CHECK(j.at("plausible").at("linear_um") == "inf");
+  CHECK(j.at("plausible").at("temperature_C") == 120.0);
+  CHECK_FALSE(j.at("plausible").contains("angular_um_per_m"));
 }
