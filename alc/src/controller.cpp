@@ -16,7 +16,7 @@ std::string describe(const char* field, double value, const char* constraint) {
   return s.str();
 }
 
-// A reading as printed in messages: shortest round-trip-ish text ("-1e+308", "1234.5").
+// A reading as printed in messages, 6 significant digits ("-1e+308", "1234.5").
 std::string reading(double v) {
   std::ostringstream o;
   o.precision(6);
