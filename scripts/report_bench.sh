@@ -4,10 +4,15 @@
 # written, then opened in headless chromium: the time to load and paint it is the wall time of a
 # screenshot of the page minus that of an empty page (browser start), best of 3 each.
 #   scripts/report_bench.sh [DIR]   (default: a temporary directory, removed at the end)
+#   ALC=build/rel/cli/alc scripts/report_bench.sh   (an alc already built: no build here)
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 ensure_packages "${ALC_PACKAGES[@]}" chromium
-build "$ALC_ROOT/build/release" -DCMAKE_BUILD_TYPE=Release -DALC_BUILD_TESTS=OFF
-alc="$ALC_ROOT/build/release/cli/alc"
+if [ -n "${ALC:-}" ]; then
+  alc="$(realpath "$ALC")"
+else
+  build "$ALC_ROOT/build/release" -DCMAKE_BUILD_TYPE=Release -DALC_BUILD_TESTS=OFF
+  alc="$ALC_ROOT/build/release/cli/alc"
+fi
 dir="${1:-}"
 if [ -z "$dir" ]; then dir="$(mktemp -d)"; trap 'rm -rf "$dir"' EXIT; fi
 mkdir -p "$dir"
