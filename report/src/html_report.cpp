@@ -156,6 +156,13 @@ class RunSection {
            escape_xml(e.what()) + ").</p>\n";
       return;
     }
+    // The document is keyed by output name (sorted); alc replay prints the run's channel order.
+    const auto& names = d_.run.output_names;
+    const auto position = [&](const runtime::OutputIndicators& o) {
+      return std::find(names.begin(), names.end(), o.name) - names.begin();
+    };
+    std::stable_sort(rep.outputs.begin(), rep.outputs.end(),
+                     [&](const auto& l, const auto& r) { return position(l) < position(r); });
     const auto value = [&](const nlohmann::json& j, const char* key, const std::string& text) {
       const nlohmann::json& v = j.contains(key) ? j.at(key) : nlohmann::json();
       return "<span data-key=\"" + std::string(key) + "\" data-value=\"" + escape_xml(v.dump()) + "\">" + text +
@@ -185,7 +192,9 @@ class RunSection {
       const auto& o = rep.outputs[i];
       const nlohmann::json& oj = outs.at(o.name);
       const nlohmann::json bj = base.contains(o.name) ? base.at(o.name) : nlohmann::json::object();
-      const double base_p99 = i < rep.baseline.size() ? rep.baseline[i].P99 : kNaN;
+      const auto b = std::find_if(rep.baseline.begin(), rep.baseline.end(),
+                                  [&](const runtime::OutputIndicators& x) { return x.name == o.name; });
+      const double base_p99 = b != rep.baseline.end() ? b->P99 : kNaN;
       h += "<tr data-output=\"" + escape_xml(o.name) + "\"><td>" + escape_xml(o.name) + "</td><td>" +
            std::string(unit_of(o.kind)) + "</td>" + cell(oj, "PV", fmt(o.PV, 1)) + cell(oj, "RMSE", fmt(o.RMSE)) +
            cell(oj, "P99", fmt(o.P99)) + cell(oj, "SMAPE", fmt(o.SMAPE, 1)) +

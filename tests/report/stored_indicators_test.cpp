@@ -21,7 +21,7 @@ namespace {
 
 // The indicators of the first run of a page, read back from its table and summary line (each number's
 // exact value is its cell's data-value): {"source": "replay"|"probes", "summary": {key: value},
-// "outputs": {name: {key: value}}}.
+// "outputs": {name: {key: value}}, "order": [the rows' outputs]}.
 nlohmann::json page_indicators(const std::string& html) {
   nlohmann::json j = {{"summary", nlohmann::json::object()}, {"outputs", nlohmann::json::object()}};
   const std::regex pair("data-key=\"([^\"]+)\" data-value=\"([^\"]*)\"");
@@ -38,8 +38,10 @@ nlohmann::json page_indicators(const std::string& html) {
   REQUIRE(table_at != std::string::npos);
   const std::string table = html.substr(table_at, html.find("</table>", table_at) - table_at);
   const std::regex row("<tr data-output=\"([^\"]+)\">(.*?)</tr>");
-  for (std::sregex_iterator it(table.begin(), table.end(), row), end; it != end; ++it)
+  for (std::sregex_iterator it(table.begin(), table.end(), row), end; it != end; ++it) {
     pairs((*it)[2].str(), j["outputs"][(*it)[1].str()]);
+    j["order"].push_back((*it)[1].str());
+  }
   return j;
 }
 
@@ -86,6 +88,8 @@ TEST_CASE("replay --case A --db then report: the page's indicators are alc repla
   {
     const storage::HistoryReader reader(db);
     CHECK(reader.schema_version() == 5);
+    // The rows in the run's output order, as alc replay prints its table.
+    CHECK(shown.at("order").get<std::vector<std::string>>() == reader.run(1)->output_names);
     const auto stored = reader.indicators(1);
     REQUIRE(stored);
     CHECK(nlohmann::json::parse(stored->report_json) == replay);
