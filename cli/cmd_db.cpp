@@ -47,6 +47,7 @@ void run_info(const std::string& file) {
       else
         std::cout << ", latest snapshot at time_s " << snapshot->time_s;
     }
+    if (reader.indicators(run.run_id)) std::cout << ", indicators stored";
     std::cout << "\n";
   }
   std::cout << "rows per table:\n";

@@ -40,7 +40,7 @@ void run_report(const ReportArgs& a) {
   io::write_file_atomically(a.out, html);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cout << "report: " << std::filesystem::absolute(a.out).string() << " (" << stats.runs << " run(s)"
-            << (stats.study ? " and the study" : "") << ", " << stats.charts << " charts, " << stats.series
+            << (stats.study ? " and the study's " + std::to_string(stats.figures) + " figures" : "") << ", " << stats.charts << " charts, " << stats.series
             << " series, " << stats.points << " points drawn, " << html.size() / 1024 << " KiB, written in "
             << static_cast<int>(seconds * 1000.0) << " ms)\n";
 }
@@ -53,7 +53,7 @@ void add_report_command(CLI::App& app) {
       "report", "Write one self-contained HTML page of a history database: per run the errors (measured, "
                 "predicted, residual with the ACL band) with phases and model updates, the inputs, probe intervals "
                 "and Pd, the axis offsets (refused commands marked), the indicators and the parameters; for a "
-                "study file the Pareto fronts. Opens offline in any browser (see docs/report.md).");
+                "study file its Pareto fronts and heat maps. Opens offline in any browser (see docs/report.md).");
   cmd->add_option("file", args->file, "History database (alc replay --db, alc study --db)")->required();
   cmd->add_option("--run", args->runs, "Only this run; repeat for several (default: every run of the file)")
       ->type_name("N")

@@ -11,9 +11,11 @@
 #include "probing/schedule.hpp"
 #include "report/run_data.hpp"
 #include "report/svg_chart.hpp"
+#include "runtime/report_json.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/study_store.hpp"
 #include "study/analysis.hpp"
+#include "study/figures.hpp"
 #include "study/results.hpp"
 
 namespace alc::report {
@@ -67,6 +69,7 @@ class Page {
     stats_.series += c.series.size();
     for (const auto& s : c.series) stats_.points += drawn_points(c, s);
   }
+  ReportStats& stats() { return stats_; }
   std::string html;
 
  private:
@@ -131,32 +134,101 @@ class RunSection {
     return c;
   }
 
+  // The indicators table: the run's stored indicators (what `alc replay --json` printed when it
+  // ended) when the history holds them, else the ones computed from its probes, labelled as such.
+  // Every number also carries its exact value (data-value) for tests and tools.
   void indicators() {
-    const runtime::ReplayReport rep = history_indicators(d_);
     std::string& h = page_.html;
-    h += "<h3>Indicators</h3>\n<p>duration " + fmt(rep.duration_s / 3600.0, 1) + " h, CP ended at " +
-         (std::isfinite(rep.cp_end_s) ? fmt(hours(rep.cp_end_s), 2) + " h" : std::string("never")) + ", M = " +
-         std::to_string(rep.M) + " probe cycles, Pd = " + fmt(rep.Pd) + " %, NG phases " +
-         std::to_string(rep.ng_phases) + ", model updates " + std::to_string(rep.updates) +
-         (rep.rejected_fits ? ", rejected fits " + std::to_string(rep.rejected_fits) : std::string()) + "</p>\n";
-    h += "<table class=\"indicators\"><thead><tr><th>output</th><th>unit</th><th>PV [%]</th><th>RMSE</th>"
-         "<th>P99</th><th>SMAPE [%]</th><th>P99 uncomp</th><th>P99 baseline</th><th>probes evaluated</th></tr>"
-         "</thead><tbody>\n";
+    const bool stored = d_.indicators.has_value();
+    nlohmann::json doc;
+    if (stored) doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
+    const bool usable = stored && doc.is_object() && doc.contains("outputs");
+    if (!usable) {
+      runtime::ReplayReport probes = history_indicators(d_);
+      if (std::isfinite(probes.cp_end_s)) probes.cp_end_s -= t0_s_;  // hours of the time axes
+      doc = runtime::report_json(probes);
+    }
+    runtime::ReplayReport rep;
+    try {
+      rep = runtime::report_from_json(doc);
+    } catch (const nlohmann::json::exception& e) {
+      h += "<h3>Indicators</h3>\n<p class=\"note\">The indicators stored for this run cannot be read (" +
+           escape_xml(e.what()) + ").</p>\n";
+      return;
+    }
+    // The document is keyed by output name (sorted); alc replay prints the run's channel order.
+    const auto& names = d_.run.output_names;
+    const auto position = [&](const runtime::OutputIndicators& o) {
+      return std::find(names.begin(), names.end(), o.name) - names.begin();
+    };
+    std::stable_sort(rep.outputs.begin(), rep.outputs.end(),
+                     [&](const auto& l, const auto& r) { return position(l) < position(r); });
+    const auto value = [&](const nlohmann::json& j, const char* key, const std::string& text) {
+      const nlohmann::json& v = j.contains(key) ? j.at(key) : nlohmann::json();
+      return "<span data-key=\"" + std::string(key) + "\" data-value=\"" + escape_xml(v.dump()) + "\">" + text +
+             "</span>";
+    };
+    const std::string source = usable ? "replay" : "probes";
+    h += "<h3>Indicators" + std::string(usable ? "" : " (from the probes of this history)") + "</h3>\n";
+    h += "<p class=\"summary\" data-indicators=\"" + source + "\">duration " +
+         value(doc, "duration_h", fmt(rep.duration_s / 3600.0, 1)) + " h, CP ended at " +
+         (std::isfinite(rep.cp_end_s) ? value(doc, "cp_end_h", fmt(rep.cp_end_s / 3600.0, 2)) + " h"
+                                      : value(doc, "cp_end_h", "never")) +
+         ", M = " + value(doc, "M", std::to_string(rep.M)) + " probe cycles, Pd = " + value(doc, "Pd", fmt(rep.Pd)) +
+         " %, NG phases " + value(doc, "ng_phases", std::to_string(rep.ng_phases)) + ", model updates " +
+         value(doc, "updates", std::to_string(rep.updates)) + ", rejected fits " +
+         value(doc, "rejected_fits", std::to_string(rep.rejected_fits)) + "</p>\n";
+    h += "<table class=\"indicators\" data-indicators=\"" + source +
+         "\"><thead><tr><th>output</th><th>unit</th><th>PV [%]</th><th>RMSE</th><th>P99</th><th>SMAPE [%]</th>"
+         "<th>P99 uncomp</th><th>P99 baseline</th><th>" +
+         (usable ? "measurements evaluated" : "probes evaluated") + "</th></tr></thead><tbody>\n";
+    const nlohmann::json& outs = doc.at("outputs");
+    const nlohmann::json& base = doc.at("baseline").at("outputs");
+    const auto cell = [&](const nlohmann::json& o, const char* key, const std::string& text) {
+      return "<td data-key=\"" + std::string(key) + "\" data-value=\"" +
+             escape_xml(o.contains(key) ? o.at(key).dump() : "null") + "\">" + text + "</td>";
+    };
     for (std::size_t i = 0; i < rep.outputs.size(); ++i) {
       const auto& o = rep.outputs[i];
-      h += "<tr><td>" + escape_xml(o.name) + "</td><td>" + std::string(unit_of(o.kind)) + "</td><td>" +
-           fmt(o.PV, 1) + "</td><td>" + fmt(o.RMSE) + "</td><td>" + fmt(o.P99) + "</td><td>" + fmt(o.SMAPE, 1) +
-           "</td><td>" + fmt(o.P99_uncompensated) + "</td><td>" + fmt(rep.baseline[i].P99) + "</td><td>" +
-           std::to_string(o.measurements) + "</td></tr>\n";
+      const nlohmann::json& oj = outs.at(o.name);
+      const nlohmann::json bj = base.contains(o.name) ? base.at(o.name) : nlohmann::json::object();
+      const auto b = std::find_if(rep.baseline.begin(), rep.baseline.end(),
+                                  [&](const runtime::OutputIndicators& x) { return x.name == o.name; });
+      const double base_p99 = b != rep.baseline.end() ? b->P99 : kNaN;
+      h += "<tr data-output=\"" + escape_xml(o.name) + "\"><td>" + escape_xml(o.name) + "</td><td>" +
+           std::string(unit_of(o.kind)) + "</td>" + cell(oj, "PV", fmt(o.PV, 1)) + cell(oj, "RMSE", fmt(o.RMSE)) +
+           cell(oj, "P99", fmt(o.P99)) + cell(oj, "SMAPE", fmt(o.SMAPE, 1)) +
+           cell(oj, "P99_uncompensated", fmt(o.P99_uncompensated)) +
+           "<td data-key=\"baseline.P99\" data-value=\"" + escape_xml(bj.contains("P99") ? bj.at("P99").dump() : "null") +
+           "\">" + fmt(base_p99) + "</td>" + cell(oj, "measurements", std::to_string(o.measurements)) + "</tr>\n";
     }
     h += "</tbody></table>\n<p>mean P99 linear: ALC " + fmt(rep.mean_p99(ErrorKind::Linear)) + " µm, baseline " +
          fmt(rep.mean_p99(ErrorKind::Linear, true)) + " µm, uncompensated " +
          fmt(rep.mean_p99_uncompensated(ErrorKind::Linear)) + " µm; mean P99 angular: ALC " +
          fmt(rep.mean_p99(ErrorKind::Angular)) + " µm/m, baseline " + fmt(rep.mean_p99(ErrorKind::Angular, true)) +
-         " µm/m, uncompensated " + fmt(rep.mean_p99_uncompensated(ErrorKind::Angular)) + " µm/m.</p>\n"
-         "<p class=\"note\">Computed from this history: every probe from the end of CP on against the stored "
-         "prediction in force at its time (a replay's own table also counts the scenario's measurements that "
-         "were not probed).</p>\n";
+         " µm/m, uncompensated " + fmt(rep.mean_p99_uncompensated(ErrorKind::Angular)) + " µm/m.</p>\n";
+    for (const auto& b : rep.baselines) {
+      h += "<p>" + escape_xml(b.name) + ": mean P99 linear " + fmt(b.mean_p99(ErrorKind::Linear)) +
+           " µm, angular " + fmt(b.mean_p99(ErrorKind::Angular)) + " µm/m";
+      std::string selected;
+      for (const auto& [output, inputs] : b.selected) {
+        std::string list;
+        for (const auto& i : inputs) list += (list.empty() ? "" : ",") + i;
+        selected += " " + output + " " + (list.empty() ? std::string("none") : list);
+      }
+      h += (selected.empty() ? "" : "; inputs selected:" + escape_xml(selected)) + ".</p>\n";
+    }
+    if (usable && d_.run.status != storage::RunStatus::Finished)
+      h += "<p class=\"note\">The run stopped before the end of its data: these are its indicators up to there, "
+           "as the replay evaluated them when it stopped.</p>\n";
+    else if (usable)
+      h += "<p class=\"note\">As <code>alc replay</code> printed them when the run ended (stored in the history): "
+           "every recorded measurement from the end of CP on against the prediction in force.</p>\n";
+    else
+      h += "<p class=\"note\">This history stores no indicators of the run (a supervisor run, which has no truth "
+           "between its probes, a run that has not ended, or a file written before schema version 5), so they are "
+           "computed from its probes: every probe from the end of CP on against the stored prediction in force at "
+           "its time. A replay's own table also counts the measurements that were not probed.</p>\n";
   }
 
   void errors() {
@@ -348,75 +420,62 @@ class RunSection {
   std::vector<Marker> updates_;
 };
 
-// The study part: per case the Pareto front of mean linear P99 against Pd over every set.
+// An SVG document of the study's figures (study/figures.hpp) as an element of the page: its XML
+// declaration dropped.
+std::string inline_svg(const std::string& document) {
+  const auto start = document.find("<svg");
+  return start == std::string::npos ? document : document.substr(start);
+}
+
+// The study part: the study's own figures (`alc study report --svg` writes the same SVG): per case
+// the Pareto front of mean linear P99 against Pd over every set, then the heat maps of P99 and Pd.
 void study_section(const std::filesystem::path& file, const storage::StudyHeader& header, Page& page) {
   const study::StudyInfo info = study::StudyInfo::of(header);
   const auto rows = storage::StudyStore::rows_of(file);
   const study::Analysis a = study::analyse(info, rows);
+  const study::FiguresRendered figures = study::render_figures(info, rows, a, std::nullopt);
   std::string& h = page.html;
   h += "<section class=\"study\" id=\"study\">\n<h2>Study: " + std::to_string(info.sets.size()) + " parameter sets x " +
        std::to_string(info.cases.size()) + " cases</h2>\n<p>" + std::to_string(a.rows) + " of " +
        std::to_string(a.expected) + " rows present (shard " + escape_xml(info.shard) + ", " +
-       escape_xml(info.software_version) + "). Each point is a parameter set; the line joins the sets no other set "
-       "beats on both mean linear P99 and Pd (Pareto front); dashed: the P99 limit of Eq. 8.</p>\n";
-  for (std::size_t ci = 0; ci < a.cases.size(); ++ci) {
-    const auto& ca = a.cases[ci];
-    Chart c;
-    c.id = "study-pareto-" + std::to_string(ci);
-    c.title = "Case " + ca.name + ": P99 against Pd (" + std::to_string(ca.rows) + " sets, " +
-              std::to_string(ca.failed) + " failed)";
-    c.x_label = "Pd [%]";
-    c.y_label = "mean linear P99 [µm]";
-    c.height = 300;
-    Series all{"parameter sets", "#9e9e9e", Series::Style::Points, {}, {}};
-    std::vector<std::pair<double, double>> points;
-    for (const auto& r : rows)
-      if (r.ok && static_cast<std::size_t>(r.case_index) == ci && r.pd && r.p99_linear)
-        points.emplace_back(*r.pd, *r.p99_linear);
-    std::sort(points.begin(), points.end());  // x non-decreasing for the display downsampling
-    for (const auto& [x, y] : points) {
-      all.x.push_back(x);
-      all.y.push_back(y);
-    }
-    Series front{"Pareto front", "#d62728", Series::Style::Line, {}, {}};
-    std::vector<study::Point> pareto = ca.pareto;
-    std::sort(pareto.begin(), pareto.end(), [](const auto& l, const auto& r) { return l.pd < r.pd; });
-    for (const auto& p : pareto) {
-      front.x.push_back(p.pd);
-      front.y.push_back(p.p99_linear);
-    }
-    c.series = {std::move(all), std::move(front)};
-    if (!points.empty()) {
-      Series limit{"limit " + fmt(a.limit_um, 1) + " µm", "#555555", Series::Style::Line,
-                   {points.front().first, points.back().first}, {a.limit_um, a.limit_um}, true};
-      c.series.push_back(std::move(limit));
-    }
-    page.chart(c);
-    if (ca.optimum)
+       escape_xml(info.software_version) + "). Per case every parameter set is a point of mean linear P99 against "
+       "Pd; the line joins the sets no other set beats on both (Pareto front); dashed: the P99 limit of Eq. 8. The "
+       "heat maps show the mean over the cases of P99 and of Pd over Post-CP interval x NG measurements at CP " +
+       escape_xml(figures.heatmap_cp) + " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
+       "</p>\n";
+  for (std::size_t ci = 0; ci < a.cases.size(); ++ci)
+    if (const auto& ca = a.cases[ci]; ca.optimum)
       h += "<p>Eq. 8 optimum of case " + escape_xml(ca.name) + ": set " + std::to_string(ca.optimum->set) +
            ", P99 " + fmt(ca.optimum->p99_linear) + " µm, Pd " + fmt(ca.optimum->pd) + " %.</p>\n";
+  for (const study::Figure& f : figures.figures) {
+    const bool heat = f.name.rfind("heatmap-", 0) == 0;
+    h += "<figure class=\"study-figure " + std::string(heat ? "heatmap" : "pareto") + "\" id=\"study-" +
+         escape_xml(f.name) + "\">" + inline_svg(f.svg) + "</figure>\n";
+    ++page.stats().figures;
   }
-  h += "<p class=\"note\">Heat maps of P99 and Pd over the grid: not drawn by this version.</p>\n</section>\n";
+  for (const std::string& note : figures.notes) h += "<p class=\"note\">" + escape_xml(note) + ".</p>\n";
+  h += "</section>\n";
 }
 
 const char* const kStyle = R"(
 body{font:14px/1.4 system-ui,sans-serif;margin:0 24px 40px;color:#222;max-width:1000px}
 h1{margin:16px 0 4px}h2{border-top:2px solid #444;padding-top:12px;margin-top:32px}h3{margin:24px 0 6px}
-nav a{margin-right:12px}.meta,.note{color:#555;font-size:13px}
+nav a{margin-right:12px}p.meta,p.note{color:#555;font-size:13px}
 table{border-collapse:collapse;margin:6px 0;font-size:13px}td,th{border:1px solid #ccc;padding:2px 8px;text-align:right}
 td:first-child,th:first-child,.parameters td{text-align:left}
 figure.chart{margin:8px 0 14px}svg.alc-chart{display:block;background:#fff}
-svg text{font:11px system-ui,sans-serif;fill:#333}svg .chart-title{font-size:13px;font-weight:600}
-svg .axis-label{font-size:12px}svg .grid{stroke:#e4e4e4;stroke-width:1}svg .frame{fill:none;stroke:#888}
-svg .span-CP{fill:#dbe9f7}svg .span-NG{fill:#f9d6d5}svg .span-Post-CP{fill:none}
-svg .hband{fill:#ffe8c2;opacity:.8}
-svg .marker{stroke-width:1}svg .marker-update{stroke:#2ca02c;opacity:.45}svg .marker-rejected{stroke:#999;stroke-dasharray:3 3}
-svg .marker-refused{stroke:#d62728;stroke-width:2}svg .marker-sent{stroke:#2ca02c;opacity:.7}
-svg path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
-svg path.series-points{stroke-width:4.5;stroke-linecap:round}svg path.dashed{stroke-dasharray:6 4}
-.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
+svg.alc-chart text{font:11px system-ui,sans-serif;fill:#333}svg.alc-chart .chart-title{font-size:13px;font-weight:600}
+svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .grid{stroke:#e4e4e4;stroke-width:1}svg.alc-chart .frame{fill:none;stroke:#888}
+svg.alc-chart .span-CP{fill:#dbe9f7}svg.alc-chart .span-NG{fill:#f9d6d5}svg.alc-chart .span-Post-CP{fill:none}
+svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
+svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
+svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
+svg.alc-chart path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
+svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}
+figcaption.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
 .legend i{display:inline-block;width:14px;height:4px;margin-right:5px;vertical-align:middle}
 .legend .key-points i{width:7px;height:7px;border-radius:50%}.legend i.hband-key{background:#ffe8c2;height:10px}
+figure.study-figure{margin:10px 0 20px}figure.study-figure svg{display:block;max-width:100%;height:auto}
 #alc-dom-check{display:none}
 )";
 
@@ -436,8 +495,13 @@ const char* const kScript = R"(<script>
       });
       charts.push({id: svg.parentNode.id, series: series});
     });
+    var figures = [];
+    document.querySelectorAll('figure.study-figure').forEach(function (f) {
+      figures.push({id: f.id, svgs: f.querySelectorAll('svg').length, cells: f.querySelectorAll('g.cell').length,
+                    rows: f.querySelectorAll('circle.row').length});
+    });
     var out = document.getElementById('alc-dom-check');
-    out.textContent = JSON.stringify({charts: charts, errors: errors,
+    out.textContent = JSON.stringify({charts: charts, figures: figures, errors: errors,
                                       render_ms: Math.round(performance.now())});
     out.setAttribute('data-done', '1');
   }

@@ -46,6 +46,7 @@ RunData load_run(const storage::HistoryReader& reader, storage::RunId run) {
   d.phases = reader.phase_changes(run);
   d.intervals = reader.probe_interval_changes(run);
   d.nc_commands = reader.nc_commands(run);
+  d.indicators = reader.indicators(run);
   return d;
 }
 

@@ -202,12 +202,26 @@ std::string render_svg(const Chart& c) {
   o += "<text class=\"axis-label\" transform=\"rotate(-90)\" x=\"" + num(-(pt + pb) / 2) +
        "\" y=\"14\" text-anchor=\"middle\">" + escape_xml(c.y_label) + "</text>\n";
   o += "</g>\n<g clip-path=\"url(#" + escape_xml(clip) + ")\">\n";
-  for (const auto& m : c.markers) {
-    if (!(m.x >= x0 && m.x <= x1)) continue;
-    const double x = X(m.x);
-    const double top = m.kind == "sent" ? pb - 8.0 : pt;  // a command sent: a tick on the time axis
-    o += "<line class=\"marker marker-" + escape_xml(m.kind) + "\" x1=\"" + num(x) + "\" x2=\"" + num(x) + "\" y1=\"" +
-         num(top) + "\" y2=\"" + num(pb) + "\"><title>" + escape_xml(m.label) + "</title></line>\n";
+  std::vector<std::string> kinds;  // in order of first appearance
+  for (const auto& m : c.markers)
+    if (std::find(kinds.begin(), kinds.end(), m.kind) == kinds.end()) kinds.push_back(m.kind);
+  for (const std::string& kind : kinds) {
+    std::vector<const Marker*> in_range;
+    for (const auto& m : c.markers)
+      if (m.kind == kind && m.x >= x0 && m.x <= x1) in_range.push_back(&m);
+    const double top = kind == "sent" ? pb - 8.0 : pt;  // a command sent: a tick on the time axis
+    if (in_range.size() <= kMarkersAsLines) {
+      for (const Marker* m : in_range)
+        o += "<line class=\"marker marker-" + escape_xml(kind) + "\" x1=\"" + num(X(m->x)) + "\" x2=\"" +
+             num(X(m->x)) + "\" y1=\"" + num(top) + "\" y2=\"" + num(pb) + "\"><title>" + escape_xml(m->label) +
+             "</title></line>\n";
+      continue;
+    }
+    std::string d;
+    for (const Marker* m : in_range) d.append("M").append(num(X(m->x))).append(" ").append(num(top)).append("V").append(num(pb));
+    o += "<path class=\"marker marker-" + escape_xml(kind) + "\" data-markers=\"" + std::to_string(in_range.size()) +
+         "\" d=\"" + d + "\"><title>" + std::to_string(in_range.size()) + " x " + escape_xml(kind) +
+         " (each one in the tables below)</title></path>\n";
   }
   const auto buckets = static_cast<std::size_t>(std::max(1.0, pr - pl));
   for (const auto& s : c.series) {

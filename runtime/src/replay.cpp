@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "runtime/history_recorder.hpp"
+#include "runtime/report_json.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/storage_error.hpp"
@@ -141,7 +142,8 @@ void Replay::run_until(double stop_time_s) {
   ended_ = true;
   if (lifecycle_) {
     lifecycle_->save_snapshot(controller_, static_cast<std::int64_t>(source_.position()));
-    lifecycle_->end(finished());
+    // The indicators as `alc replay --json` prints them, with the end: what a report of the run shows.
+    lifecycle_->end(finished(), report_json(report()));
   }
   if (nc_) {
     const std::string sink = nc_sink_name(options_.nc->dir);

@@ -147,7 +147,8 @@ void RunLifecycle::record_delivery(const std::string& sink, bool delivered, cons
   if (!delivered) log::get("runtime")->warn("run {}: NC output to {} not delivered: {}", run_, sink, message);
 }
 
-void RunLifecycle::end(bool finished) {
+void RunLifecycle::end(bool finished, const std::optional<nlohmann::json>& indicators) {
+  if (indicators) writer_.store_indicators({run_, indicators->dump(), 0.0});  // committed by end_run
   writer_.end_run(run_, finished ? storage::RunStatus::Finished : storage::RunStatus::Stopped);
   log::get("runtime")->info("run {} {}", run_, finished ? "finished" : "stopped (resumable)");
 }

@@ -120,6 +120,16 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   if (version >= 3)
     report_rows(*db, "SELECT run_id, nc_command_id FROM nc_commands WHERE accepted = 0 AND delivered IS NOT NULL",
                 "nc_commands: delivered set on a command the safety gate refused (run, nc_command_id)", report);
+  // The indicators a run ended with (version 5) are the JSON object alc replay --json printed.
+  if (version >= 5) {
+    Statement st(*db, "SELECT run_id, report_json FROM run_indicators ORDER BY run_id");
+    while (st.step()) {
+      const auto j = nlohmann::json::parse(st.column_text(1), nullptr, false);
+      if (!j.is_object() || !j.contains("outputs"))
+        report.problems.push_back("run_indicators: run " + st.column_text(0) +
+                                  ": report_json is not a JSON object with \"outputs\"");
+    }
+  }
   {
     Statement st(*db, std::string("SELECT ") + detail::kSnapshotColumns + " FROM controller_snapshots");
     while (st.step()) {

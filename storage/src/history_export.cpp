@@ -77,6 +77,9 @@ const std::vector<TableSpec>& specs() {
         {"format", "format", Cell::Text, nullptr}, {"is_json", "is_json", Cell::Bool, nullptr},
         {"length(payload)", "payload_bytes", Cell::Int, nullptr},
         {"payload", "payload_json", Cell::Payload, nullptr}}},
+      {"run_indicators", "run_id",  // schema version 5; an older file exports the header only
+       {{"run_id", "run_id", Cell::Int, nullptr}, {"stored_unix_s", "stored_unix_s", Cell::Real, nullptr},
+        {"report_json", "report_json", Cell::Text, nullptr}}},
   };
   return all;
 }

@@ -158,11 +158,19 @@ std::optional<ControllerSnapshot> HistoryReader::latest_snapshot(RunId run) cons
   return std::move(all.front());
 }
 
+std::optional<RunIndicatorsRecord> HistoryReader::indicators(RunId run) const {
+  if (impl_->version < 5) return std::nullopt;  // the table arrived with schema version 5
+  std::optional<RunIndicatorsRecord> out;
+  impl_->each("SELECT stored_unix_s, report_json FROM run_indicators WHERE run_id = ?1", run,
+              [&](Statement& st) { out = RunIndicatorsRecord{run, st.column_text(1), st.column_double(0)}; });
+  return out;
+}
+
 namespace {
 // Every table of the current schema; those of later versions are skipped when absent.
 constexpr const char* kTables[] = {"runs", "run_channels", "input_samples", "probe_measurements", "predictions",
                                    "model_parameter_sets", "phase_changes", "probe_interval_changes",
-                                   "nc_commands", "controller_snapshots"};
+                                   "nc_commands", "controller_snapshots", "run_indicators"};
 constexpr const char* kTimedTables[] = {"input_samples", "probe_measurements", "predictions", "model_parameter_sets",
                                         "phase_changes", "probe_interval_changes", "nc_commands",
                                         "controller_snapshots"};

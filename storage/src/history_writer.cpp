@@ -43,7 +43,7 @@ struct HistoryWriter::Impl {
   std::filesystem::path file;
   std::unique_ptr<Database> db;  // declared first: outlives the statements
   std::optional<Statement> insert_sample, insert_probe, insert_prediction, insert_model, insert_phase,
-      insert_interval, insert_nc, insert_snapshot, insert_run, insert_channel;
+      insert_interval, insert_nc, insert_snapshot, insert_run, insert_channel, insert_indicators;
   bool in_transaction = false;
   std::size_t pending = 0;
   std::uint64_t commits = 0;
@@ -147,6 +147,8 @@ struct HistoryWriter::Impl {
                        "INSERT INTO runs (source, config_json, software_version, started_unix_s, ended_unix_s, status) "
                        "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
     insert_channel.emplace(*db, "INSERT INTO run_channels (run_id, kind, channel_index, name) VALUES (?1, ?2, ?3, ?4)");
+    insert_indicators.emplace(*db,
+                              "INSERT OR REPLACE INTO run_indicators (run_id, stored_unix_s, report_json) VALUES (?1, ?2, ?3)");
   }
 };
 
@@ -364,6 +366,17 @@ std::size_t HistoryWriter::record_delivery(RunId run, const std::string& sink, b
   return static_cast<std::size_t>(sqlite3_changes(m.db->handle()));
 }
 
+void HistoryWriter::store_indicators(const RunIndicatorsRecord& r) {
+  Impl& m = live();
+  m.counts(r.run_id);
+  if (!nlohmann::json::accept(r.report_json))
+    m.invalid("run indicators: report_json is not valid JSON: '" + r.report_json.substr(0, 80) + "'");
+  m.insert([&] {
+    m.insert_indicators->bind(1, r.run_id).bind(2, r.stored_unix_s != 0.0 ? r.stored_unix_s : now_unix_s())
+        .bind_text(3, r.report_json).run();
+  });
+}
+
 void HistoryWriter::save_snapshot(const ControllerSnapshot& s) {
   Impl& m = live();
   m.check_time("controller snapshot", s.time_s);
@@ -418,6 +431,8 @@ ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
     }
     Statement samples(*m.db, "DELETE FROM input_samples WHERE run_id = ?1 AND (sample_index >= ?2 OR time_s > ?3)");
     samples.bind(1, run).bind(2, point.snapshot.next_sample_index).bind(3, t).run();
+    Statement indicators(*m.db, "DELETE FROM run_indicators WHERE run_id = ?1");  // of the run's earlier end
+    indicators.bind(1, run).run();
     Statement later(*m.db, "DELETE FROM controller_snapshots WHERE run_id = ?1 AND (time_s > ?2 OR snapshot_id > ?3)");
     later.bind(1, run).bind(2, t).bind(3, point.snapshot.snapshot_id).run();
     Statement status(*m.db, "UPDATE runs SET status = 'running', ended_unix_s = NULL WHERE run_id = ?1");
@@ -442,6 +457,7 @@ void HistoryWriter::close() {
   impl_->insert_snapshot.reset();
   impl_->insert_run.reset();
   impl_->insert_channel.reset();
+  impl_->insert_indicators.reset();
   impl_->db.reset();
 }
 

@@ -148,6 +148,17 @@ CREATE TABLE study_rows (
 ) WITHOUT ROWID;
 )sql";
 
+// Version 5: the indicators a run ended with (the document `alc replay --json` prints for it), so a
+// report shows the replay's own table. One row per run; written when the run ends, removed when it
+// is resumed (the resumed run writes it again when it ends).
+constexpr std::string_view kSchemaV5 = R"sql(
+CREATE TABLE run_indicators (
+  run_id          INTEGER PRIMARY KEY REFERENCES runs (run_id),
+  stored_unix_s   REAL NOT NULL,
+  report_json     TEXT NOT NULL
+);
+)sql";
+
 }  // namespace
 
 std::string_view migration_sql(int to_version) {
@@ -156,6 +167,7 @@ std::string_view migration_sql(int to_version) {
     case 2: return kSchemaV2;
     case 3: return kSchemaV3;
     case 4: return kSchemaV4;
+    case 5: return kSchemaV5;
     default: return {};
   }
 }

@@ -762,33 +762,42 @@ std::string default_heatmap_cp(const StudyInfo& info, const Analysis& analysis) 
   return cp_values(info).front();
 }
 
-FiguresWritten write_figures(const StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows,
-                             const Analysis& analysis, const fs::path& dir,
-                             const std::optional<std::string>& heatmap_cp) {
-  const std::string cp = heatmap_cp ? grid_cp(info, *heatmap_cp) : default_heatmap_cp(info, analysis);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw std::runtime_error("cannot create '" + dir.string() + "': " + ec.message());
-  FiguresWritten out;
+FiguresRendered render_figures(const StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows,
+                               const Analysis& analysis, const std::optional<std::string>& heatmap_cp) {
+  FiguresRendered out;
+  out.heatmap_cp = heatmap_cp ? grid_cp(info, *heatmap_cp) : default_heatmap_cp(info, analysis);
   std::set<std::string> names;
   for (std::size_t ci = 0; ci < analysis.cases.size() && ci < info.cases.size(); ++ci) {
     std::string name = "pareto-" + file_part(info.cases[ci].name);
     if (!names.insert(name).second) names.insert(name += "-" + std::to_string(ci + 1));
-    const fs::path file = dir / (name + ".svg");
-    io::write_file_atomically(file, pareto_svg(info, rows, analysis, ci));
-    out.files.push_back(file);
+    out.figures.push_back({name, pareto_svg(info, rows, analysis, ci)});
   }
   if (!has_axis(info, "interval") || !has_axis(info, "ng-meas")) {
     out.notes.push_back(std::string("no heat map: the grid has no '") +
                         (has_axis(info, "interval") ? "ng-meas" : "interval") + "' axis");
     return out;
   }
-  const HeatMap h = heat_map(info, rows, analysis, cp);
-  for (const bool p99 : {true, false}) {
-    const fs::path file = dir / (std::string(p99 ? "heatmap-p99-cp" : "heatmap-pd-cp") + file_part(cp) + ".svg");
-    io::write_file_atomically(file, heat_map_svg(info, analysis, h, p99));
+  const HeatMap h = heat_map(info, rows, analysis, out.heatmap_cp);
+  for (const bool p99 : {true, false})
+    out.figures.push_back({std::string(p99 ? "heatmap-p99-cp" : "heatmap-pd-cp") + file_part(out.heatmap_cp),
+                           heat_map_svg(info, analysis, h, p99)});
+  return out;
+}
+
+FiguresWritten write_figures(const StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows,
+                             const Analysis& analysis, const fs::path& dir,
+                             const std::optional<std::string>& heatmap_cp) {
+  FiguresRendered rendered = render_figures(info, rows, analysis, heatmap_cp);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw std::runtime_error("cannot create '" + dir.string() + "': " + ec.message());
+  FiguresWritten out;
+  for (const Figure& f : rendered.figures) {
+    const fs::path file = dir / (f.name + ".svg");
+    io::write_file_atomically(file, f.svg);
     out.files.push_back(file);
   }
+  out.notes = std::move(rendered.notes);
   return out;
 }
 

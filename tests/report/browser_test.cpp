@@ -93,3 +93,34 @@ TEST_CASE("browser: a screenshot of the report is kept as a test artifact", "[re
   REQUIRE(bytes.size() > 20000);  // a page of charts, not a blank one
   CHECK(bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
 }
+
+TEST_CASE("browser: the report of a study file shows its Pareto figure and heat maps without console errors",
+          "[report][browser]") {
+  const test::Scratch scratch("browser-study");
+  const auto& dir = scratch.dir;
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
+  const auto db = dir / "study.sqlite";
+  const auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                       db.string() + "\"",
+                                   "report_browser_study");
+  REQUIRE(r.exit_code == 0);
+  const auto page = dir / "study.html";
+  test::io_write(page, html_report(db, {}));
+  const test::Browser b = test::chromium(dir, "--virtual-time-budget=10000 --dump-dom", page);
+  REQUIRE(b.exit_code == 0);
+  INFO(b.err);
+  CHECK(b.err.find(":CONSOLE") == std::string::npos);
+  const std::string text = dom_check(b.out);
+  REQUIRE_FALSE(text.empty());
+  const auto j = nlohmann::json::parse(text);
+  CHECK(j.at("errors").empty());
+  const auto& figures = j.at("figures");
+  REQUIRE(figures.size() == 3);
+  CHECK(figures.at(0).at("id") == "study-pareto-A");
+  CHECK(figures.at(0).at("rows") == 4);  // a point per parameter set
+  for (std::size_t i = 1; i < 3; ++i) {
+    CHECK(figures.at(i).at("id").get<std::string>().rfind("study-heatmap-", 0) == 0);
+    CHECK(figures.at(i).at("cells") == 4);  // interval x ng-meas
+  }
+  for (const auto& f : figures) CHECK(f.at("svgs") == 1);
+}

@@ -59,7 +59,7 @@ TEST_CASE("report page of a short history: every chart - phases - updates - refu
   CHECK(html.find(">interval [min]</text>") != std::string::npos);
   CHECK(html.find(">Pd [%]</text>") != std::string::npos);
   // Tables: indicators (a row per output) and parameters.
-  CHECK(test::count(html, "<tr><td>E_") == outputs);
+  CHECK(test::count(html, "<tr data-output=\"E_") == outputs);
   CHECK(html.find("<td>parameters.acl_linear_um</td><td>2.5</td>") != std::string::npos);
   // Self-contained: nothing to fetch.
   CHECK(html.find("<link") == std::string::npos);
@@ -154,7 +154,8 @@ TEST_CASE("alc report: writes the page - not a history - a missing file or an un
   CHECK(r.exit_code == 2);
 }
 
-TEST_CASE("report of a study file: the Pareto front of each case over every parameter set", "[report][html][cli]") {
+TEST_CASE("report of a study file: the study's Pareto front of each case and its heat maps of P99 and Pd",
+          "[report][html][cli]") {
   const test::Scratch scratch("study");
   const auto& dir = scratch.dir;
   std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
@@ -167,10 +168,24 @@ TEST_CASE("report of a study file: the Pareto front of each case over every para
   const std::string html = html_report(db, {}, &stats);
   CHECK(stats.study);
   CHECK(stats.runs == 0);
-  CHECK(stats.charts == 1);
+  CHECK(stats.figures == 3);  // the Pareto figure of case A, the heat maps of P99 and Pd
   CHECK(html.find("<section class=\"study\" id=\"study\">") != std::string::npos);
-  CHECK(html.find(">mean linear P99 [µm]</text>") != std::string::npos);
-  CHECK(html.find(">Pd [%]</text>") != std::string::npos);
-  CHECK(html.find("data-name=\"parameter sets\" data-style=\"points\" data-points=\"4\"") != std::string::npos);
-  CHECK(html.find("data-name=\"Pareto front\"") != std::string::npos);
+  CHECK(test::count(html, "<figure class=\"study-figure pareto\"") == 1);
+  CHECK(test::count(html, "<figure class=\"study-figure heatmap\"") == 2);
+  // Each heat map has a cell per (interval, ng-meas) of the grid: 2 x 2; the Pareto figure a point per set.
+  CHECK(test::count(html, "<g class=\"cell\" ") + test::count(html, "<g class=\"cell nodata\" ") == 2 * 4);
+  CHECK(test::count(html, "<circle class=\"row\"") == 4);
+  CHECK(html.find("<?xml") == std::string::npos);  // inline SVG elements, not documents
+  // The very figures `alc study report --svg` writes.
+  const auto svg = dir / "svg";
+  r = alc_test::run_alc("study report \"" + db.string() + "\" --svg \"" + svg.string() + "\"", "report_study");
+  REQUIRE(r.exit_code == 0);
+  std::size_t files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(svg)) {
+    ++files;
+    const std::string text = alc_test::slurp(f.path());
+    INFO(f.path());
+    CHECK(html.find(text.substr(text.find("<svg"))) != std::string::npos);
+  }
+  CHECK(files == 3);
 }

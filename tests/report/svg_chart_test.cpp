@@ -84,3 +84,33 @@ TEST_CASE("nice ticks: round steps - hours in multiples of 6 - 12 - 24 h", "[rep
   CHECK(h[1] - h[0] == 24.0);
   CHECK(nice_ticks(1, 1, 5).empty());
 }
+
+TEST_CASE("markers: a line with its tooltip each up to the limit - beyond it one path per kind with a line per marker",
+          "[report][svg]") {
+  const auto chart_with = [](std::size_t updates) {
+    Chart c;
+    c.id = "m";
+    c.x_range = std::make_pair(0.0, 100.0);
+    c.series.push_back({"s", "#000", Series::Style::Line, {0.0, 100.0}, {0.0, 1.0}});
+    for (std::size_t i = 0; i < updates; ++i)
+      c.markers.push_back({static_cast<double>(i) * 0.5, "update", "update " + std::to_string(i)});
+    c.markers.push_back({99.0, "refused", "refused: too large"});
+    c.markers.push_back({200.0, "update", "outside the time range"});  // not drawn, not counted
+    return render_svg(c);
+  };
+  const std::string few = chart_with(kMarkersAsLines);
+  CHECK(test::count(few, "<line class=\"marker marker-update\"") == kMarkersAsLines);
+  CHECK(few.find("<title>update 39</title>") != std::string::npos);
+  CHECK(few.find("<path class=\"marker") == std::string::npos);
+  const std::string many = chart_with(kMarkersAsLines + 1);
+  CHECK(test::count(many, "<line class=\"marker marker-update\"") == 0);
+  const std::string path = "<path class=\"marker marker-update\" data-markers=\"" + std::to_string(kMarkersAsLines + 1) + "\" d=\"";
+  const auto at = many.find(path);
+  REQUIRE(at != std::string::npos);
+  const std::string d = many.substr(at + path.size(), many.find('"', at + path.size()) - at - path.size());
+  CHECK(test::count(d, "M") == kMarkersAsLines + 1);
+  CHECK(test::count(d, "V") == kMarkersAsLines + 1);
+  // The other kind keeps its own line and tooltip.
+  CHECK(test::count(many, "<line class=\"marker marker-refused\"") == 1);
+  CHECK(many.find("refused: too large") != std::string::npos);
+}

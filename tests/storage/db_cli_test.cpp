@@ -45,14 +45,22 @@ TEST_CASE("alc db info, check and export on a sound history", "[storage][cli]") 
     const RunId id = writer.begin_run(test::small_run());
     for (std::int64_t k = 0; k < 61; ++k) writer.add(test::sample_at(id, k));
     writer.save_snapshot({id, 3600.0, 61, "test/1", true, "{}"});
+    writer.store_indicators({id, R"({"outputs":{},"Pd":97.5})", 0.0});
   }
   const Outcome info = run_alc("db info " + quoted(file));
+  CHECK_THAT(info.output, Catch::Contains("latest snapshot at time_s 3600, indicators stored\n") &&
+                              Catch::Contains("run_indicators          1"));
   CHECK(info.exit_code == 0);
   CHECK_THAT(info.output, Catch::Contains("schema version: " + std::to_string(kSchemaVersion)) && Catch::Contains("runs: 1") &&
                               Catch::Contains("time_s 0 .. 3600 (1 h)") && Catch::Contains("input_samples           61"));
   const Outcome check = run_alc("db check " + quoted(file));
   CHECK(check.exit_code == 0);
   CHECK_THAT(check.output, Catch::EndsWith(": ok\n"));
+
+  const Outcome indicators = run_alc("db export " + quoted(file) + " --table run_indicators --out -");
+  CHECK(indicators.exit_code == 0);
+  CHECK_THAT(indicators.output, Catch::StartsWith("run_id,stored_unix_s,report_json\n1,") &&
+                                    Catch::EndsWith(",\"{\"\"outputs\"\":{},\"\"Pd\"\":97.5}\"\n"));
 
   const auto csv = dir / "samples.csv";
   const Outcome exported = run_alc("db export " + quoted(file) + " --table input_samples --out " + quoted(csv));

@@ -573,3 +573,46 @@ TEST_CASE("a version-2 database is migrated to the current version: its NC comma
   CHECK(rows[0].delivered == std::optional<bool>(true));
   CHECK_FALSE(rows[1].delivered.has_value());
 }
+
+TEST_CASE("a version-4 database is migrated to version 5: its runs kept, no indicators until a run ends", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "v4.sqlite";
+  // A finished replay and a study in version-4 form.
+  old_history(file, 4,
+              "INSERT INTO runs VALUES (1, 'case A', '{}', 'alc 0.1.0', 1.7e9, 1.7e9, 'finished');"
+              "INSERT INTO run_channels VALUES (1, 'input', 0, 'T_ENV'), (1, 'output', 0, 'E_X0C');"
+              "INSERT INTO input_samples VALUES (1, 0, 0.0, X'0000000000003440');"
+              "INSERT INTO studies VALUES (1, '{}', '[]', 'alc 0.1.0', '1/1', 2, 1.7e9);");
+  {
+    // A reader takes the file as it is: no indicators table, none stored, an export of the header only.
+    const HistoryReader reader(file);
+    CHECK(reader.schema_version() == 4);
+    CHECK_FALSE(reader.indicators(1));
+    const auto counts = reader.table_counts();
+    CHECK(std::none_of(counts.begin(), counts.end(), [](const TableCount& c) { return c.table == "run_indicators"; }));
+    std::ostringstream csv;
+    export_table_csv(file, "run_indicators", csv);
+    CHECK(csv.str() == "run_id,stored_unix_s,report_json\n");
+    CHECK(check_history(file).ok());
+  }
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == 4);
+  RunId next = 0;
+  {
+    HistoryWriter writer(file);  // migrates
+    next = writer.begin_run(RunRecord{0, "case B", "{}", "alc test", 0.0, std::nullopt, RunStatus::Running,
+                                      {"T_ENV"}, {"E_X0C"}, {}});
+    writer.store_indicators({next, R"({"outputs":{}})", 0.0});
+    writer.end_run(next, RunStatus::Finished);
+  }
+  CHECK(RawDb(file).scalar("PRAGMA user_version") == kSchemaVersion);
+  CHECK(kSchemaVersion == 5);
+  CHECK(RawDb(file).scalar("SELECT COUNT(*) FROM studies") == 1);
+  const HistoryReader reader(file);
+  CHECK(reader.schema_version() == 5);
+  CHECK(reader.run(1)->source == "case A");
+  CHECK(reader.input_samples(1).size() == 1);
+  CHECK_FALSE(reader.indicators(1));  // the old run ended without: a report computes them from its probes
+  REQUIRE(reader.indicators(next));
+  CHECK(reader.indicators(next)->report_json == R"({"outputs":{}})");
+  CHECK(check_history(file).ok());
+}

@@ -1,4 +1,5 @@
 // Every record type written and read back exactly; batching; resume; model JSON; CSV export.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
@@ -340,6 +341,57 @@ TEST_CASE("resume returns the latest snapshot and drops what was written after i
   HistoryWriter writer(file);
   const RunId empty = writer.begin_run(test::small_run());
   CHECK_THROWS_WITH(writer.resume_run(empty), Catch::Contains("no controller snapshot"));
+}
+
+TEST_CASE("the indicators a run ends with: stored, replaced, exported, refused when not JSON, removed by a resume",
+          "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "indicators.sqlite";
+  const std::string first = R"({"outputs":{"E_X0C":{"P99":1.5}},"Pd":97.5})";
+  const std::string last = R"({"outputs":{"E_X0C":{"P99":1.25}},"Pd":96.0})";
+  RunId id = 0, other = 0;
+  {
+    HistoryWriter writer(file);
+    id = writer.begin_run(test::small_run());
+    other = writer.begin_run(test::small_run());
+    writer.add(test::sample_at(id, 0));
+    writer.save_snapshot({id, 0.0, 1, "test/1", true, "{}"});
+    CHECK_THROWS_WITH(writer.store_indicators({id, "{\"outputs\": ", 0.0}), Catch::Contains("not valid JSON"));
+    CHECK_THROWS_WITH(writer.store_indicators({99, first, 0.0}), Catch::Contains("run 99 does not exist"));
+    writer.store_indicators({id, first, 0.0});
+    writer.store_indicators({id, last, 1.7e9});  // the run's indicators are replaced, not added
+    writer.end_run(id, RunStatus::Stopped);
+  }
+  {
+    const HistoryReader reader(file);
+    const auto stored = reader.indicators(id);
+    REQUIRE(stored);
+    CHECK(stored->report_json == last);
+    CHECK(stored->stored_unix_s == 1.7e9);
+    CHECK_FALSE(reader.indicators(other));
+    const auto counts = reader.table_counts();
+    CHECK(std::any_of(counts.begin(), counts.end(),
+                      [](const TableCount& c) { return c.table == "run_indicators" && c.rows == 1; }));
+    std::ostringstream csv;
+    export_table_csv(file, "run_indicators", csv);
+    CHECK(csv.str() == "run_id,stored_unix_s,report_json\n1,1.7e+09,\"" +
+                           std::string(R"({""outputs"":{""E_X0C"":{""P99"":1.25}},""Pd"":96.0})") + "\"\n");
+    CHECK(check_history(file).ok());
+  }
+  {
+    // A resumed run has not ended: what it ended with before is gone until it ends again.
+    HistoryWriter writer(file);
+    (void)writer.resume_run(id);
+    CHECK_FALSE(HistoryReader(file).indicators(id));
+    writer.store_indicators({id, first, 0.0});
+    writer.end_run(id, RunStatus::Finished);
+  }
+  CHECK(HistoryReader(file).indicators(id)->report_json == first);
+  // `alc db check` names a stored document that is not an indicators object.
+  RawDb(file).exec("UPDATE run_indicators SET report_json = '[1, 2]' WHERE run_id = 1");
+  const CheckReport report = check_history(file);
+  REQUIRE(report.problems.size() == 1);
+  CHECK_THAT(report.problems[0], Catch::Contains("run_indicators: run 1"));
 }
 
 TEST_CASE("thermal model JSON is exact and the parameter-set record summarises the fit", "[storage]") {

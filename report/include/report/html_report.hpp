@@ -29,7 +29,8 @@ struct ReportStats {
   std::size_t charts = 0;
   std::size_t series = 0;
   std::size_t points = 0;              // drawn (after display downsampling)
-  bool study = false;                  // the file holds a study (Pareto fronts drawn)
+  bool study = false;                  // the file holds a study (its figures embedded)
+  std::size_t figures = 0;             // the study's figures (Pareto per case, heat maps)
 };
 
 // The page. Throws storage::StorageError for a file that is not an ALC database (naming the file)

@@ -2,6 +2,7 @@
 // One run of a history as the report draws it, and its indicators recomputed from what the history
 // stores (docs/report.md, "Indicators").
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,7 @@ struct RunData {
   std::vector<storage::PhaseChangeRecord> phases;
   std::vector<storage::ProbeIntervalChangeRecord> intervals;
   std::vector<storage::NcCommandRecord> nc_commands;
+  std::optional<storage::RunIndicatorsRecord> indicators;  // what the run ended with (schema 5), if stored
 };
 
 RunData load_run(const storage::HistoryReader& reader, storage::RunId run);

@@ -39,6 +39,11 @@ struct Marker {                     // vertical line at x
   std::string label;                // tooltip
 };
 
+// Markers of one kind in a chart up to this many are one <line> each with its label as tooltip;
+// more (a long run's model updates) are one <path class="marker marker-KIND" data-markers=N> with a
+// line per marker and one tooltip, so a 90-day page does not carry thousands of elements per chart.
+inline constexpr std::size_t kMarkersAsLines = 40;
+
 struct Chart {
   std::string id;                   // element id (unique in the page)
   std::string title;

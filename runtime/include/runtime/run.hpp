@@ -53,8 +53,10 @@ class RunLifecycle : public Observer {
   void save_snapshot(const Controller& controller, std::int64_t next_index);
   // Records the delivery of the run's accepted NC commands of `sink` (delivered or not, why).
   void record_delivery(const std::string& sink, bool delivered, const std::string& message);
-  // Ends the run: Finished, or Stopped (resumable).
-  void end(bool finished);
+  // Ends the run: Finished, or Stopped (resumable). `indicators`: the run's evaluation as
+  // report_json() gives it (what `alc replay --json` prints), stored with the end (run_indicators);
+  // none for a run without truth to evaluate against (a supervisor).
+  void end(bool finished, const std::optional<nlohmann::json>& indicators = std::nullopt);
 
  private:
   storage::HistoryWriter& writer_;

@@ -51,6 +51,9 @@ class HistoryReader {
   std::vector<NcCommandRecord> nc_commands(RunId run) const;
   std::vector<ControllerSnapshot> snapshots(RunId run) const;
   std::optional<ControllerSnapshot> latest_snapshot(RunId run) const;
+  // The indicators the run ended with; none for a run that has not ended, one that stores none (a
+  // supervisor run) or a file older than schema version 5.
+  std::optional<RunIndicatorsRecord> indicators(RunId run) const;
 
   std::vector<TableCount> table_counts() const;   // every table of the schema version
   TimeSpan time_span(RunId run) const;

@@ -15,7 +15,8 @@
 //
 // Resume: `ResumePoint p = writer.resume_run(run)` returns the latest snapshot and deletes every
 // record of the run written after it (time_s > snapshot.time_s, sample_index >= next_sample_index),
-// so the continued run rewrites them exactly once.
+// so the continued run rewrites them exactly once, and the run's stored indicators (run_indicators),
+// which the resumed run stores again when it ends.
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -90,6 +91,10 @@ class HistoryWriter {
   // rows already settled are left alone). Commits the pending batch first, so the commands added so
   // far are covered, and the update at once. Returns the number of rows set.
   std::size_t record_delivery(RunId run, const std::string& sink, bool delivered, const std::string& message);
+
+  // Stores (or replaces) the run's indicators, buffered like add() (end_run commits them). Refuses
+  // text that is not JSON.
+  void store_indicators(const RunIndicatorsRecord& record);
 
   // Stores the snapshot and commits everything pending with it.
   void save_snapshot(const ControllerSnapshot& snapshot);

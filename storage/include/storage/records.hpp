@@ -109,6 +109,15 @@ struct NcCommandRecord {
   std::string delivery_message = "";             // the sink's error, or its note on the delivery (file written)
 };
 
+// The indicators a run ended with (schema version 5): the JSON document `alc replay --json` prints for
+// the run (runtime::report_json), stored when a replay ends and removed when the run is resumed.
+// Storage only checks that it is JSON; its shape is the runtime's.
+struct RunIndicatorsRecord {
+  RunId run_id = 0;
+  std::string report_json;                  // {"outputs": {...}, "Pd": ..., "M": ..., ...}
+  double stored_unix_s = 0.0;               // [s] wall clock when stored (0: set to now by the writer)
+};
+
 // time_s of a snapshot taken before the controller saw its first sample (replay saves one at the
 // start of a run). Not a time of the run: HistoryReader::time_span and `alc db info` ignore it.
 inline constexpr double kSnapshotBeforeStart_s = -1.0;

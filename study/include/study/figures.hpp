@@ -35,6 +35,22 @@ std::string grid_cp(const StudyInfo& info, const std::string& text);
 // The heat maps' CP when none is given: the CP of the first case's Eq. 8 optimum, else the first CP.
 std::string default_heatmap_cp(const StudyInfo& info, const Analysis& analysis);
 
+// One figure as a self-contained SVG document (with its XML declaration).
+struct Figure {
+  std::string name;  // file stem: "pareto-<case>", "heatmap-p99-cp<H>", "heatmap-pd-cp<H>"
+  std::string svg;
+};
+
+struct FiguresRendered {
+  std::vector<Figure> figures;       // Pareto per case, then the heat maps of P99 and Pd
+  std::string heatmap_cp;            // the CP of the heat maps
+  std::vector<std::string> notes;    // what was left out and why
+};
+
+// The figures write_figures() writes, in memory (`alc report` embeds them in its page).
+FiguresRendered render_figures(const StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows,
+                               const Analysis& analysis, const std::optional<std::string>& heatmap_cp);
+
 // Writes pareto-<case>.svg per case and heatmap-p99-cp<H>.svg, heatmap-pd-cp<H>.svg into `dir`
 // (created if missing; each file replaced atomically). `heatmap_cp`: a CP of the grid (grid_cp), or
 // nullopt for default_heatmap_cp. Throws FigureError for a CP not in the grid, std::runtime_error when

@@ -1,0 +1,148 @@
+// The indicators table of the report is the one `alc replay` prints: a replay with --db stores the
+// document `alc replay --json` prints (history schema version 5, run_indicators) and the page shows
+// it; a resumed run ends with the same; a run without stored indicators shows the probe-based ones,
+// labelled as such.
+#include <catch2/catch.hpp>
+
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+
+#include "../cli_support.hpp"
+#include "report/run_data.hpp"
+#include "report_test_support.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/history_writer.hpp"
+
+using namespace alc;
+using namespace alc::report;
+
+namespace {
+
+// The indicators of the first run of a page, read back from its table and summary line (each number's
+// exact value is its cell's data-value): {"source": "replay"|"probes", "summary": {key: value},
+// "outputs": {name: {key: value}}, "order": [the rows' outputs]}.
+nlohmann::json page_indicators(const std::string& html) {
+  nlohmann::json j = {{"summary", nlohmann::json::object()}, {"outputs", nlohmann::json::object()}};
+  const std::regex pair("data-key=\"([^\"]+)\" data-value=\"([^\"]*)\"");
+  const auto pairs = [&](const std::string& text, nlohmann::json& into) {
+    for (std::sregex_iterator it(text.begin(), text.end(), pair), end; it != end; ++it)
+      into[(*it)[1].str()] = nlohmann::json::parse((*it)[2].str());
+  };
+  const auto summary_at = html.find("<p class=\"summary\" data-indicators=\"");
+  REQUIRE(summary_at != std::string::npos);
+  const auto source_at = summary_at + std::string("<p class=\"summary\" data-indicators=\"").size();
+  j["source"] = html.substr(source_at, html.find('"', source_at) - source_at);
+  pairs(html.substr(summary_at, html.find("</p>", summary_at) - summary_at), j["summary"]);
+  const auto table_at = html.find("<table class=\"indicators\"");
+  REQUIRE(table_at != std::string::npos);
+  const std::string table = html.substr(table_at, html.find("</table>", table_at) - table_at);
+  const std::regex row("<tr data-output=\"([^\"]+)\">(.*?)</tr>");
+  for (std::sregex_iterator it(table.begin(), table.end(), row), end; it != end; ++it) {
+    pairs((*it)[2].str(), j["outputs"][(*it)[1].str()]);
+    j["order"].push_back((*it)[1].str());
+  }
+  return j;
+}
+
+// Every number of `replay` (alc replay --json of one case) equals the page's.
+void check_same(const nlohmann::json& page, const nlohmann::json& replay) {
+  CHECK(page.at("source") == "replay");
+  for (const char* key : {"duration_h", "cp_end_h", "M", "Pd", "ng_phases", "updates", "rejected_fits"}) {
+    INFO(key);
+    CHECK(page.at("summary").at(key) == replay.at(key));
+  }
+  REQUIRE(page.at("outputs").size() == replay.at("outputs").size());
+  for (const auto& [name, o] : replay.at("outputs").items()) {
+    INFO(name);
+    const auto& p = page.at("outputs").at(name);
+    for (const char* key : {"PV", "RMSE", "P99", "SMAPE", "P99_uncompensated", "measurements"}) {
+      INFO(key);
+      CHECK(p.at(key) == o.at(key));
+    }
+    CHECK(p.at("baseline.P99") == replay.at("baseline").at("outputs").at(name).at("P99"));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("replay --case A --db then report: the page's indicators are alc replay --json's - a resumed run ends with "
+          "the same",
+          "[report][html][cli]") {
+  const test::Scratch scratch("stored");
+  const auto& dir = scratch.dir;
+  const auto db = dir / "a.sqlite";
+  auto r = alc_test::run_alc("replay --case A --json --db \"" + db.string() + "\"", "report_stored");
+  REQUIRE(r.exit_code == 0);
+  const auto replay = nlohmann::json::parse(r.out);
+  const auto page = dir / "a.html";
+  r = alc_test::run_alc("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_stored");
+  REQUIRE(r.exit_code == 0);
+  const std::string html = alc_test::slurp(page);
+  const nlohmann::json shown = page_indicators(html);
+  check_same(shown, replay);
+  // Not the probe-based evaluation: that one scores about 100 probes after CP, the replay every
+  // recorded measurement (thousands).
+  CHECK(shown.at("outputs").at("E_A0C").at("measurements").get<int>() > 1000);
+  CHECK(html.find("(from the probes of this history)") == std::string::npos);
+  {
+    const storage::HistoryReader reader(db);
+    CHECK(reader.schema_version() == 5);
+    // The rows in the run's output order, as alc replay prints its table.
+    CHECK(shown.at("order").get<std::vector<std::string>>() == reader.run(1)->output_names);
+    const auto stored = reader.indicators(1);
+    REQUIRE(stored);
+    CHECK(nlohmann::json::parse(stored->report_json) == replay);
+  }
+
+  // Stopped at 50 h (indicators of the part replayed), then resumed to the end: the run ends with the
+  // indicators of the uninterrupted replay, and a resume removed the stopped run's ones meanwhile.
+  const auto db2 = dir / "resumed.sqlite";
+  r = alc_test::run_alc("replay --case A --stop-at 50 --db \"" + db2.string() + "\"", "report_stored");
+  REQUIRE(r.exit_code == 0);
+  {
+    const storage::HistoryReader reader(db2);
+    REQUIRE(reader.run(1)->status == storage::RunStatus::Stopped);
+    const auto stopped = reader.indicators(1);
+    REQUIRE(stopped);
+    CHECK(nlohmann::json::parse(stopped->report_json).at("duration_h").get<double>() < 50.0);
+  }
+  r = alc_test::run_alc("replay --case A --resume --json --db \"" + db2.string() + "\"", "report_stored");
+  REQUIRE(r.exit_code == 0);
+  CHECK(nlohmann::json::parse(r.out) == replay);
+  const storage::HistoryReader reader(db2);
+  CHECK(reader.run(1)->status == storage::RunStatus::Finished);
+  const auto resumed = reader.indicators(1);
+  REQUIRE(resumed);
+  CHECK(nlohmann::json::parse(resumed->report_json) == replay);
+  check_same(page_indicators(html_report(db2, {})), replay);
+}
+
+TEST_CASE("a run without stored indicators: the report shows the probe-based ones, labelled", "[report][html]") {
+  const test::Scratch scratch("unstored");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  CHECK(page_indicators(html_report(h.db, {})).at("source") == "replay");
+  {
+    // Resuming removes what the run ended with (as a supervisor run or an unended one: nothing stored).
+    storage::HistoryWriter writer(h.db);
+    (void)writer.resume_run(h.run);
+  }
+  REQUIRE_FALSE(storage::HistoryReader(h.db).indicators(h.run));
+  const std::string html = html_report(h.db, {});
+  const nlohmann::json shown = page_indicators(html);
+  CHECK(shown.at("source") == "probes");
+  CHECK(html.find("<h3>Indicators (from the probes of this history)</h3>") != std::string::npos);
+  CHECK(html.find(">probes evaluated</th>") != std::string::npos);
+  // The numbers are history_indicators' (every probe from the end of CP on).
+  const storage::HistoryReader reader(h.db);
+  const runtime::ReplayReport probes = history_indicators(load_run(reader, h.run));
+  CHECK(shown.at("summary").at("M") == probes.M);
+  CHECK(shown.at("summary").at("Pd") == probes.Pd);
+  for (const auto& o : probes.outputs) {
+    INFO(o.name);
+    CHECK(shown.at("outputs").at(o.name).at("P99") == o.P99);
+    CHECK(shown.at("outputs").at(o.name).at("measurements") == o.measurements);
+    CHECK(o.measurements < h.replay.outputs.front().measurements);
+  }
+}
