@@ -53,8 +53,9 @@ ControllerOutput Driver::sample(const Sample& sample) {
   }
   last_ = sample;
   for (const ControllerEvent& e : out.events)
-    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected)
-      log::get("runtime")->info("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
+    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
+        e.type == ControllerEvent::Type::Guard)
+      log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ", e.reason);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -71,7 +72,10 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
     return out;
   }
   for (const ControllerEvent& e : out.events)
-    log::get("runtime")->debug("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
+    if (e.type == ControllerEvent::Type::Guard)
+      log::get("runtime")->info("t = {} s: {}: {}: {}", e.time_s, to_string(e.type), e.output, e.reason);
+    else
+      log::get("runtime")->debug("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
   notify(Cycle::Kind::Probe, &probe, out, before);
   return out;
 }
