@@ -45,7 +45,8 @@ struct ReplayArgs {
   bool no_refit = false;
   bool no_confirm = false;
   std::string schedule = "paper", uncertainty_fraction = "0.5", min_interval = "0.5", max_interval = "12";
-  bool guard = false;
+  bool guard = false;          // --guard: the default since the gain guard (kept so old command lines work)
+  bool no_guard = false;
   // [µm], [µm/m], [°C], [rpm], [-]: readings beyond ± these are sensor faults (AlcParameters::plausible_*)
   std::string plausible_lin = common::shortest_text(AlcParameters{}.plausible_linear_um);
   std::string plausible_ang = common::shortest_text(AlcParameters{}.plausible_angular_um_per_m);
@@ -77,7 +78,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
                             {"uncertainty-fraction", a.uncertainty_fraction},
                             {"min-interval", a.min_interval},
                             {"max-interval", a.max_interval},
-                            {"guard", a.guard ? "true" : "false"},
+                            {"guard", a.no_guard ? "false" : "true"},
                             {"plausible-lin", a.plausible_lin},
                             {"plausible-ang", a.plausible_ang},
                             {"plausible-temp", a.plausible_temp},
@@ -370,9 +371,13 @@ void add_replay_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--min-interval", args->min_interval, "Adaptive: shortest Post-CP interval [h]")->capture_default_str();
   cmd->add_option("--max-interval", args->max_interval, "Adaptive: longest Post-CP interval [h]")->capture_default_str();
-  cmd->add_flag("--guard", args->guard,
-                "Hold an output's compensation off while, on recent probes, its residual is clearly larger than the "
-                "error without compensation and beyond the ACL (off by default; docs/adaptive.md)");
+  auto* guard = cmd->add_flag("--guard", args->guard, "The guard, on by default (kept for older command lines)");
+  cmd->add_flag("--no-guard", args->no_guard,
+                "Compensate with the model's prediction as it is. By default a guard backs compensation off per "
+                "output: it scales the prediction by its least-squares gain in [0, 1] against the errors of the "
+                "recent probes, and compensates nothing while the prediction leaves the range of the measured "
+                "errors (docs/adaptive.md)")
+      ->excludes(guard);
   // The plausibility limits: the help texts of the one option table (runtime/parameter_options.cpp).
   const std::pair<const char*, std::string*> plausible[] = {{"plausible-lin", &args->plausible_lin},
                                                             {"plausible-ang", &args->plausible_ang},

@@ -51,9 +51,13 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (s.drift_rate.size() != n) s.drift_rate = Eigen::VectorXd::Constant(n, nan);
   if (s.noise_var.size() != n) s.noise_var = Eigen::VectorXd::Constant(n, nan);
-  if (s.guard_residual.size() != n) s.guard_residual = Eigen::VectorXd::Zero(n);
+  if (s.guard_cross.size() != n) s.guard_cross = Eigen::VectorXd::Zero(n);
+  if (s.guard_power.size() != n) s.guard_power = Eigen::VectorXd::Zero(n);
   if (s.guard_error.size() != n) s.guard_error = Eigen::VectorXd::Zero(n);
   if (s.guard_gain.size() != n) s.guard_gain = Eigen::VectorXd::Ones(n);
+  if (s.error_low.size() != n) s.error_low = Eigen::VectorXd::Constant(n, kInf);
+  if (s.error_high.size() != n) s.error_high = Eigen::VectorXd::Constant(n, -kInf);
+  if (s.guard_off_range.size() != n) s.guard_off_range = Eigen::VectorXd::Zero(n);
 }
 
 std::string AlcParameters::validate() const {
@@ -150,8 +154,11 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
     throw std::invalid_argument("controller: saved state has other input names");
   if (state.prediction.size() != static_cast<Eigen::Index>(output_names_.size()))
     throw std::invalid_argument("controller: saved state has another number of outputs");
+  const bool no_range = state.error_low.size() != static_cast<Eigen::Index>(output_names_.size());
   state_ = std::move(state);
   init_evidence(state_, output_names_.size());  // a state saved before the evidence existed
+  if (no_range)
+    for (const ProbeRecord& p : state_.probes) widen_range(p.errors);  // the guard's range from the probes kept
 }
 
 double Controller::learning_window_start(double time_s) const {
@@ -217,56 +224,109 @@ void Controller::schedule_next(double time_s, ControllerOutput& out) {
   out.events.push_back(std::move(e));
 }
 
+// The guard (docs/adaptive.md). Its sums decay by this factor per probe after CP (about the last 20
+// probes weigh); the gain is applied once this many probes are in them, in steps of kGuardStep (each
+// change an event). The range that compensation may take is the measured errors' (with 0) widened on
+// both sides by kRangeMargin x its width, at least by the ACL.
+constexpr double kGuardDecay = 0.95;
+constexpr int kGuardMinProbes = 12;
+constexpr double kGuardStep = 0.1;
+constexpr double kRangeMargin = 1.0;
+
+std::pair<double, double> Controller::guard_range(Eigen::Index i) const {
+  if (!(state_.error_low(i) <= state_.error_high(i))) return {-kInf, kInf};
+  const double lo = std::min(state_.error_low(i), 0.0);
+  const double hi = std::max(state_.error_high(i), 0.0);
+  const double margin = std::max(acl_of(static_cast<std::size_t>(i)), kRangeMargin * (hi - lo));
+  return {lo - margin, hi + margin};
+}
+
 Eigen::VectorXd Controller::compensated() const {
-  if (state_.guard_gain.size() != state_.prediction.size()) return state_.prediction;
-  return state_.prediction.cwiseProduct(state_.guard_gain);
+  Eigen::VectorXd c = state_.prediction;
+  if (!params_.guard || !state_.has_model) return c;
+  for (Eigen::Index i = 0; i < c.size(); ++i) c(i) = state_.guard_off_range(i) != 0.0 ? 0.0 : c(i) * state_.guard_gain(i);
+  return c;
+}
+
+Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
+  if (params_.guard && state_.has_model)
+    for (Eigen::Index i = 0; i < state_.prediction.size(); ++i) {
+      const double p = state_.prediction(i);
+      const auto [lo, hi] = guard_range(i);
+      const bool off = !(p >= lo && p <= hi);
+      if (off == (state_.guard_off_range(i) != 0.0)) continue;
+      state_.guard_off_range(i) = off ? 1.0 : 0.0;
+      ControllerEvent e;
+      e.type = ControllerEvent::Type::Guard;
+      e.time_s = time_s;
+      e.from = e.to = state_.phase;
+      e.output = output_names_[static_cast<std::size_t>(i)];
+      e.value = p;
+      e.limit = p > hi ? hi : lo;
+      std::ostringstream why;
+      why << "guard: ";
+      if (off)
+        why << "compensation off: the prediction " << p << " left the range of the measured errors widened to [" << lo
+            << ", " << hi << "]";
+      else
+        why << "compensation on again: the prediction " << p << " is back within [" << lo << ", " << hi << "]";
+      e.reason = why.str();
+      out.events.push_back(std::move(e));
+    }
+  return compensated();
 }
 
 void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                              ControllerOutput& out) {
-  // Decay of the guard's sums per probe: about the last ten probes weigh; a transient (a breach the
-  // NG burst repairs) must not switch compensation off.
-  constexpr double kGuardDecay = 0.9;
-  constexpr int kGuardMinProbes = 8;
-  constexpr double kGuardOff = 2.0;  // residual energy / error energy that holds compensation off
   const double dt = time_s - state_.last_probe_s;
   ++state_.guard_probes;
+  const double weights = (1.0 - std::pow(kGuardDecay, state_.guard_probes)) / (1.0 - kGuardDecay);
   for (Eigen::Index i = 0; i < residuals.size(); ++i) {
     const double r = residuals(i);
     if (std::isnan(r) || std::isnan(errors(i))) continue;
-    if (dt > 0.0 && std::isfinite(dt)) {
+    if (state_.phase == Phase::PostCalibration && dt > 0.0 && std::isfinite(dt)) {
       // Variance growth since the probe before: what the residual adds beyond the fit's noise.
       const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
       const double rate = std::max(0.0, r * r - noise) / dt;
       state_.drift_rate(i) = std::isfinite(state_.drift_rate(i)) ? 0.5 * state_.drift_rate(i) + 0.5 * rate : rate;
     }
-    state_.guard_residual(i) = kGuardDecay * state_.guard_residual(i) + r * r;
-    state_.guard_error(i) = kGuardDecay * state_.guard_error(i) + errors(i) * errors(i);
-    // Held off while the model's recent residual is both larger than the error without compensation
-    // and beyond the ACL: within the ACL compensating does no harm worth a switch.
-    const double weights = (1.0 - std::pow(kGuardDecay, state_.guard_probes)) / (1.0 - kGuardDecay);
-    const double residual_rms = std::sqrt(state_.guard_residual(i) / weights);
-    // Off when clearly worse (twice the energy), back on when no longer worse at all: no chatter.
-    const bool worse = state_.guard_residual(i) > kGuardOff * state_.guard_error(i) &&
-                       residual_rms > acl_of(static_cast<std::size_t>(i));
-    const bool better = state_.guard_residual(i) <= state_.guard_error(i);
-    const double gain = !params_.guard || state_.guard_probes < kGuardMinProbes ? 1.0
-                        : worse                                                 ? 0.0
-                        : better                                                ? 1.0
-                                                                                : state_.guard_gain(i);
+    // The guard compares, on the recent probes, the error left with the prediction scaled by k with the
+    // error without compensation: sum (u - k p)^2 is smallest in [0, 1] at k = sum(u p) / sum(p^2)
+    // clamped, and never above sum u^2 (k = 0), so the gain never makes the recent probes worse.
+    const double u = errors(i);
+    const double p = u - r;  // the model's prediction when the probe ran
+    state_.guard_cross(i) = kGuardDecay * state_.guard_cross(i) + u * p;
+    state_.guard_power(i) = kGuardDecay * state_.guard_power(i) + p * p;
+    state_.guard_error(i) = kGuardDecay * state_.guard_error(i) + u * u;
+    if (!params_.guard || state_.guard_probes < kGuardMinProbes) continue;
+    const double k = state_.guard_power(i) > 0.0 ? std::clamp(state_.guard_cross(i) / state_.guard_power(i), 0.0, 1.0) : 1.0;
+    const double gain = std::round(k / kGuardStep) * kGuardStep;
     if (gain == state_.guard_gain(i)) continue;
-    state_.guard_gain(i) = gain;
+    const auto rms = [&](double g) {
+      const double energy = state_.guard_error(i) - 2.0 * g * state_.guard_cross(i) + g * g * state_.guard_power(i);
+      return std::sqrt(std::max(0.0, energy) / weights);
+    };
     ControllerEvent e;
     e.type = ControllerEvent::Type::Guard;
     e.time_s = time_s;
     e.from = e.to = state_.phase;
     e.output = output_names_[static_cast<std::size_t>(i)];
-    e.value = std::sqrt(state_.guard_residual(i));
-    e.limit = std::sqrt(state_.guard_error(i));
-    e.reason = gain == 0.0 ? "guard: compensation held off: on recent probes the model's residual exceeds the error "
-                             "without compensation"
-                           : "guard: compensation resumed: the model's residual is below the error without compensation again";
+    e.value = gain;
+    e.limit = state_.guard_gain(i);
+    std::ostringstream why;
+    why << "guard: compensation gain " << state_.guard_gain(i) << " -> " << gain << ": on the recent probes the error RMS is "
+        << rms(0.0) << " uncompensated, " << rms(1.0) << " with the prediction, " << rms(gain) << " with gain " << gain;
+    e.reason = why.str();
+    state_.guard_gain(i) = gain;
     out.events.push_back(std::move(e));
+  }
+}
+
+void Controller::widen_range(const Eigen::VectorXd& errors) {
+  for (Eigen::Index i = 0; i < errors.size(); ++i) {
+    if (std::isnan(errors(i))) continue;
+    state_.error_low(i) = std::min(state_.error_low(i), errors(i));
+    state_.error_high(i) = std::max(state_.error_high(i), errors(i));
   }
 }
 
@@ -481,7 +541,7 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
   trim();
-  out.prediction = compensated();
+  out.prediction = compensated(time_s, out);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }
@@ -522,13 +582,15 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   record.time_s = t;
   record.sample_index = state_.history.time_s.size() - 1;
   record.errors = thermal_errors(usable);
+  widen_range(record.errors);
   state_.probes.push_back(record);
   ++state_.probe_cycles;
 
   // Residual against the prediction that was active when the probe ran.
   std::vector<std::size_t> breaches;
   const Eigen::VectorXd residuals = this->residuals(record.errors);
-  if (state_.phase == Phase::PostCalibration && state_.has_model) weigh_probe(t, record.errors, residuals, out);
+  // Every probe after CP is evidence for the guard, the NG probes too (a model that mispredicts breaches).
+  if (state_.phase != Phase::Calibration && state_.has_model) weigh_probe(t, record.errors, residuals, out);
   state_.last_probe_s = t;
   for (Eigen::Index i = 0; i < n; ++i) {
     const double residual = residuals(i);
@@ -637,7 +699,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       break;
     }
   }
-  out.prediction = compensated();
+  out.prediction = compensated(t, out);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }
@@ -646,7 +708,7 @@ ControllerOutput Controller::on_tick(double time_s) {
   ControllerOutput out;
   if (!state_.started) return out;
   advance(time_s, out);
-  out.prediction = compensated();
+  out.prediction = compensated(time_s, out);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }

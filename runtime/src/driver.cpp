@@ -54,8 +54,9 @@ ControllerOutput Driver::sample(const Sample& sample) {
   }
   last_ = sample;
   for (const ControllerEvent& e : out.events)
-    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected)
-      log::get("runtime")->info("t = {} s: {}: {}", e.time_s, to_string(e.type), e.reason);
+    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
+        e.type == ControllerEvent::Type::Guard)
+      log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ", e.reason);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -77,6 +78,10 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
                              std::find(implausible_logged_.begin(), implausible_logged_.end(), e.output) ==
                                  implausible_logged_.end();
     if (first_fault) implausible_logged_.push_back(e.output);
+    if (e.type == ControllerEvent::Type::Guard) {
+      log::get("runtime")->info("t = {} s: {}: {}: {}", e.time_s, to_string(e.type), e.output, e.reason);
+      continue;
+    }
     log::get("runtime")->log(first_fault ? spdlog::level::warn : spdlog::level::debug, "t = {} s: {}: {}{}", e.time_s,
                              to_string(e.type), e.reason,
                              first_fault ? " (later readings of " + e.output + " set aside: log level debug)" : "");

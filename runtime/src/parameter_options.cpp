@@ -51,7 +51,7 @@ const std::vector<ParameterOption>& parameter_options() {
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL", Stage::CpEnd},
       {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
       {"max-interval", "h", kNumber, "Adaptive: longest Post-CP interval", Stage::CpEnd},
-      {"guard", "-", kFlag, "Hold an output's compensation off while it is clearly worse than none on recent probes",
+      {"guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
        Stage::CpEnd},
       {"plausible-lin", "µm", kNumberOrInf,
        "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start},

@@ -46,10 +46,15 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.f64(c.last_probe_s);
   e.vector(c.drift_rate);
   e.vector(c.noise_var);
-  e.vector(c.guard_residual);
+  // Version 5: the guard's gain evidence and the range of the measured errors.
+  e.vector(c.guard_cross);
+  e.vector(c.guard_power);
   e.vector(c.guard_error);
   e.i32(c.guard_probes);
   e.vector(c.guard_gain);
+  e.vector(c.error_low);
+  e.vector(c.error_high);
+  e.vector(c.guard_off_range);
 }
 
 ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
@@ -98,11 +103,25 @@ ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
     c.last_probe_s = d.f64("last_probe_s");
     c.drift_rate = d.vector("drift_rate");
     c.noise_var = d.vector("noise_var");
-    c.guard_residual = d.vector("guard_residual");
+  }  // version 3: the controller starts the evidence afresh (init_evidence)
+  if (version == 4) {
+    // Version 4's guard (residual and error energies, an on/off gain) is not this guard's evidence:
+    // read past it; the guard starts afresh, its range from the probes kept in the state.
+    d.vector("guard_residual");
+    d.vector("guard_error");
+    d.i32("guard_probes");
+    d.vector("guard_gain");
+    c.error_low = c.error_high = Eigen::VectorXd();
+  } else if (version >= 5) {
+    c.guard_cross = d.vector("guard_cross");
+    c.guard_power = d.vector("guard_power");
     c.guard_error = d.vector("guard_error");
     c.guard_probes = d.i32("guard_probes");
     c.guard_gain = d.vector("guard_gain");
-  }  // version 3: the controller starts the evidence afresh (init_evidence)
+    c.error_low = d.vector("error_low");
+    c.error_high = d.vector("error_high");
+    c.guard_off_range = d.vector("guard_off_range");
+  }
   return c;
 }
 
@@ -133,8 +152,8 @@ RunState decode_run_state(const std::string& payload) {
     throw std::runtime_error("run state: checksum mismatch (the snapshot is damaged)");
   ByteReader d(body, "run state");
   const std::uint32_t version = d.read_header(kRunStateFormat);
-  if (version != kRunStateVersion && version != 3)
-    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads 3 and " +
+  if (version != kRunStateVersion && version != 3 && version != 4)
+    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads 3, 4 and " +
                              std::to_string(kRunStateVersion));
   RunState s;
   s.next_index = d.i64("next_index");

@@ -642,32 +642,45 @@ TEST_CASE("controller: the adaptive schedule shortens the interval when the resi
   CHECK(intervals.back() < 1 * kHour);  // shorter than the paper's interval of 1 h
 }
 
-TEST_CASE("controller: the guard holds compensation off where the model does worse than none, and says so") {
+// The errors vanish from 2 h on while no identification succeeds any more (the model stays): the
+// model's predictions are wrong, no compensation would be right.
+Driver wrong_model(bool guard) {
+  AlcParameters p = test_parameters();
+  p.acl_linear_um = 1.0;
+  p.acl_angular_um_per_m = 1.0;
+  p.guard = guard;
+  Driver d(p);
+  d.run_until(2 * kHour + kMinute);
+  REQUIRE(d.controller.phase() != Phase::Calibration);
+  AlcParameters frozen = p;
+  frozen.identification.min_measurements = 100000;
+  d.controller = d.controller.fork(frozen);
+  return d;
+}
+
+void errors_vanish(Driver& d, double until_s) {
+  d.run_until(until_s, [&](double) {
+    d.plant.offset_x = -3.0 * d.plant.lag;
+    d.plant.offset_a = 4.0 * d.plant.lag;
+  });
+}
+
+TEST_CASE("controller: the guard backs compensation off where the model does worse than none, and says so") {
   for (const bool guard : {true, false}) {
-    AlcParameters p = test_parameters();
-    p.acl_linear_um = 1.0;
-    p.acl_angular_um_per_m = 1.0;
-    p.guard = guard;
-    Driver d(p);
-    d.run_until(2 * kHour + kMinute);
-    REQUIRE(d.controller.phase() != Phase::Calibration);
-    // From now on no identification succeeds (the model stays), and the errors vanish at every
-    // probe: the model's predictions are wrong, no compensation would be right.
-    AlcParameters frozen = p;
-    frozen.identification.min_measurements = 100000;
-    d.controller = d.controller.fork(frozen);
-    d.run_until(30 * kHour, [&](double) {
-      d.plant.offset_x = -3.0 * d.plant.lag;
-      d.plant.offset_a = 4.0 * d.plant.lag;
-    });
+    Driver d = wrong_model(guard);
+    errors_vanish(d, 30 * kHour);
     const auto guards = d.of_type(ControllerEvent::Type::Guard);
     const Eigen::VectorXd model = d.controller.state().prediction;
     const ControllerOutput out = d.controller.on_tick(d.t);
     INFO("guard " << guard);
     if (guard) {
       REQUIRE_FALSE(guards.empty());
-      CHECK_THAT(guards.front().reason, Catch::Contains("held off"));
-      CHECK(guards.front().value > guards.front().limit);  // the model's residual beyond the error
+      // Each change of the gain is an event with the recent RMS without and with the prediction.
+      for (const auto& e : guards) {
+        CHECK_THAT(e.reason, Catch::Contains("compensation gain") && Catch::Contains("uncompensated"));
+        CHECK(e.value < e.limit);  // only down here: the model never gets better
+        CHECK(e.value >= 0.0);
+      }
       CHECK((d.controller.state().guard_gain.array() == 0.0).all());
       CHECK(out.prediction.isZero());
       CHECK_FALSE(model.isZero());
@@ -676,6 +689,103 @@ TEST_CASE("controller: the guard holds compensation off where the model does wor
       CHECK(out.prediction == model);
     }
   }
+}
+
+TEST_CASE("controller: the guard leaves a model that explains the errors alone") {
+  AlcParameters p = test_parameters();
+  CHECK(AlcParameters{}.guard);  // on by default
+  p.refit_on_probe = true;
+  Driver d(p);
+  d.run_until(40 * kHour);
+  REQUIRE(d.controller.state().guard_probes >= 30);
+  CHECK(d.of_type(ControllerEvent::Type::Guard).empty());
+  CHECK((d.controller.state().guard_gain.array() == 1.0).all());
+  const ControllerOutput out = d.controller.on_tick(d.t);
+  CHECK(out.prediction == d.controller.state().prediction);
+  CHECK_FALSE(out.prediction.isZero());
+}
+
+TEST_CASE("controller: the guard compensates nothing while the prediction leaves the measured range") {
+  AlcParameters p = test_parameters();
+  Driver d(p);
+  d.run_until(6 * kHour);
+  REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());  // the plant is the model's structure
+  const auto [low, high] = std::pair(d.controller.state().error_low(0), d.controller.state().error_high(0));
+  REQUIRE(low < high);
+  // A temperature never seen (100 K above the hall): the lag and with it the prediction run far out.
+  Eigen::VectorXd hot(2);
+  hot << 120.0, 500.0;
+  bool off = false;
+  for (int i = 0; i < 120 && !off; ++i) {
+    d.t += kMinute;
+    const ControllerOutput out = d.controller.on_sample(d.t, hot);
+    for (const auto& e : out.events)
+      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+        CHECK_THAT(e.reason, Catch::Contains("left the range"));
+        CHECK(e.value > e.limit);
+        CHECK(e.limit > high);
+        off = true;
+      }
+    if (off) {
+      CHECK(out.prediction(0) == 0.0);
+      CHECK(d.controller.state().prediction(0) > high);
+    }
+  }
+  REQUIRE(off);
+  // Back to normal inputs: the prediction returns into the range and compensation with it.
+  bool on = false;
+  for (int i = 0; i < 24 * 60 && !on; ++i) {
+    d.t += kMinute;
+    d.plant.advance(d.t);
+    const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
+    for (const auto& e : out.events)
+      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+        CHECK_THAT(e.reason, Catch::Contains("on again"));
+        on = true;
+        CHECK(out.prediction(0) == d.controller.state().prediction(0) * d.controller.state().guard_gain(0));
+      }
+  }
+  CHECK(on);
+  // Without the guard the same run compensates the far prediction.
+  AlcParameters unguarded = p;
+  unguarded.guard = false;
+  Driver u(unguarded);
+  u.run_until(6 * kHour);
+  ControllerOutput out;
+  for (int i = 0; i < 120; ++i) out = u.controller.on_sample(u.t += kMinute, hot);
+  CHECK(out.prediction(0) == u.controller.state().prediction(0));
+  CHECK(out.prediction(0) > high);
+}
+
+TEST_CASE("controller: a state saved while the guard backs off continues bit for bit") {
+  Driver d = wrong_model(true);
+  errors_vanish(d, 12 * kHour);
+  // Mid-way: some gain below 1 already, not yet all at 0.
+  const ControllerState saved = d.controller.state();
+  REQUIRE(saved.guard_probes >= 12);
+  REQUIRE((saved.guard_gain.array() < 1.0).any());
+  Controller restored({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, d.controller.parameters(), saved);
+  for (double t = d.t; t < 30 * kHour; t += kMinute) {
+    d.plant.advance(t);
+    const auto od = d.controller.on_sample(t, d.plant.inputs(t));
+    const auto orr = restored.on_sample(t, d.plant.inputs(t));
+    REQUIRE(od.prediction == orr.prediction);
+    REQUIRE(od.events.size() == orr.events.size());
+    if (t >= od.next_probe_due_s) {
+      d.plant.offset_x = -3.0 * d.plant.lag;
+      d.plant.offset_a = 4.0 * d.plant.lag;
+      ProbeMeasurement m{t, d.plant.errors(), od.prediction};
+      m.measured -= od.prediction;  // closed loop: the probe sees what compensation leaves
+      const auto pd = d.controller.on_probe(m);
+      const auto pr = restored.on_probe(m);
+      REQUIRE(pd.prediction == pr.prediction);
+      REQUIRE(pd.events.size() == pr.events.size());
+      for (std::size_t i = 0; i < pd.events.size(); ++i) REQUIRE(pd.events[i].reason == pr.events[i].reason);
+    }
+  }
+  CHECK(restored.state().guard_gain == d.controller.state().guard_gain);
+  CHECK(restored.state().guard_cross == d.controller.state().guard_cross);
+  CHECK((restored.state().guard_gain.array() == 0.0).all());
 }
 
 TEST_CASE("controller: an implausible error is set aside for its output alone and the other output is learned") {

@@ -105,6 +105,13 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
     CHECK(c.structure_span_s == end.structure_span_s);
     CHECK(c.predictor.state() == end.predictor.state());
     CHECK(c.next_probe_due_s == end.next_probe_due_s);
+    // The guard's evidence and what it applies (docs/adaptive.md) continue alike.
+    CHECK(c.guard_cross == end.guard_cross);
+    CHECK(c.guard_power == end.guard_power);
+    CHECK(c.guard_gain == end.guard_gain);
+    CHECK(c.error_low == end.error_low);
+    CHECK(c.error_high == end.error_high);
+    CHECK(c.guard_off_range == end.guard_off_range);
     for (std::size_t k = 0; k < r.outputs.size(); ++k) {
       CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
       CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
@@ -122,6 +129,17 @@ TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refuse
   const RunState decoded = decode_run_state(bytes);
   CHECK(decoded.controller.samples == 600);
   CHECK(decoded.controller.probes.size() == session.controller().state().probes.size());
+  // The guard's state travels with the snapshot (run state version 5).
+  const ControllerState& live = session.controller().state();
+  CHECK(decoded.controller.guard_probes == live.guard_probes);
+  CHECK(decoded.controller.guard_probes > 0);
+  CHECK(decoded.controller.guard_cross == live.guard_cross);
+  CHECK(decoded.controller.guard_power == live.guard_power);
+  CHECK(decoded.controller.guard_error == live.guard_error);
+  CHECK(decoded.controller.guard_gain == live.guard_gain);
+  CHECK(decoded.controller.error_low == live.error_low);
+  CHECK(decoded.controller.error_high == live.error_high);
+  CHECK(decoded.controller.guard_off_range == live.guard_off_range);
   CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
   CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
   std::string flipped = bytes;

@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "alc/error_kind.hpp"
@@ -65,9 +66,10 @@ struct AlcParameters {
   double uncertainty_fraction = 0.5;       // [-] adaptive: probe when the predicted sigma reaches this x ACL
   double min_interval_s = 1800.0;          // [s] adaptive: bounds of the Post-CP interval
   double max_interval_s = 12 * 3600.0;     // [s]
-  bool guard = false;                      // hold an output's compensation off while, on recent Post-CP probes,
-                                           // it left a clearly larger error than no compensation; off by default:
-                                           // on the held-out cases it made things worse (docs/adaptive.md)
+  bool guard = true;                       // back compensation off where it does no good (docs/adaptive.md): per
+                                           // output, scale the prediction by its least-squares gain in [0, 1]
+                                           // against the errors of recent Post-CP probes, and compensate nothing
+                                           // while the prediction leaves the range of the measured errors
   // Plausibility (docs/runtime.md, "Plausibility"): a finite reading beyond these magnitudes is a sensor
   // fault, not a thermal error. A probe's error beyond its limit is set aside for that output (an
   // Implausible event; the other outputs of the probe are learned); an input beyond its limit rejects
@@ -106,10 +108,10 @@ struct ControllerEvent {
   Phase to = Phase::Calibration;
   double interval_s = 0.0;       // [s] new probe interval (ProbeIntervalChange)
   std::string output;            // error name (AclBreach, Guard, Implausible)
-  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the model's recent residual (Guard);
-                                 // the reading set aside (Implausible)
-  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the recent error without compensation (Guard);
-                                 // the plausibility limit (Implausible)
+  double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the new gain (Guard) or the prediction
+                                 //     that left the range (Guard, range); the reading set aside (Implausible)
+  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound;
+                                 //     the plausibility limit (Implausible)
   std::string reason;            // human-readable why
 };
 std::string_view to_string(ControllerEvent::Type type);
@@ -155,13 +157,18 @@ struct ControllerState {
   double last_probe_s = -kInf;         // [s] time of the latest probe
   Eigen::VectorXd drift_rate;          // [unit²/s] growth of the residual variance after a probe (NaN: unknown)
   Eigen::VectorXd noise_var;           // [unit²] residual variance of the latest usable fit
-  Eigen::VectorXd guard_residual;      // [unit²] decaying sum of squared residuals (model) of Post-CP probes
-  Eigen::VectorXd guard_error;         // [unit²] the same of the errors themselves (no compensation)
+  // The guard's evidence (docs/adaptive.md), per output, kept whether or not the guard is on:
+  Eigen::VectorXd guard_cross;         // [unit²] decaying sum over Post-CP probes of error x prediction
+  Eigen::VectorXd guard_power;         // [unit²] the same of prediction² (the gain is cross / power)
+  Eigen::VectorXd guard_error;         // [unit²] the same of error² (the energy without compensation)
   int guard_probes = 0;                // Post-CP probes in the sums
-  Eigen::VectorXd guard_gain;          // [-] 1: compensate with the prediction, 0: held off by the guard
+  Eigen::VectorXd guard_gain;          // [-] applied gain in [0, 1] (1: the prediction as it is)
+  Eigen::VectorXd error_low;           // [unit] smallest and largest thermal error of all probes (+-inf: none)
+  Eigen::VectorXd error_high;
+  Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
 };
 
-// Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1) where it is not.
+// Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1, no range) where it is not.
 void init_evidence(ControllerState& state, std::size_t outputs);
 
 class Controller {
@@ -211,8 +218,14 @@ class Controller {
   void schedule_next(double time_s, ControllerOutput& out);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
   void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
-  // The prediction with the guard applied (what is compensated).
+  // The prediction with the guard applied (what is compensated); with `out`, also the events of an
+  // output whose prediction leaves or re-enters the range of the measured errors.
   Eigen::VectorXd compensated() const;
+  Eigen::VectorXd compensated(double time_s, ControllerOutput& out);
+  // Widens the range of the measured thermal errors by a probe's (NaN: not measured).
+  void widen_range(const Eigen::VectorXd& errors);
+  // [unit] the interval the guard lets compensation take for output i (the measured errors widened).
+  std::pair<double, double> guard_range(Eigen::Index i) const;
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
   // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
   void enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason, const std::string& interval_reason);

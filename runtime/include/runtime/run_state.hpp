@@ -19,7 +19,7 @@
 namespace alc::runtime {
 
 inline constexpr const char* kRunStateFormat = "alc.run-state";
-inline constexpr std::uint32_t kRunStateVersion = 4;  // 4: adaptive and guard evidence; 3 is read too
+inline constexpr std::uint32_t kRunStateVersion = 5;  // 5: the gain guard; 4 (first guard) and 3 are read too
 
 struct RunState {
   std::int64_t next_index = 0;        // source index to continue from
