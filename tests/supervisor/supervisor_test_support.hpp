@@ -247,6 +247,7 @@ struct Gateway {
   std::set<std::int64_t> answered;
   std::size_t seen = 0;
   Json compensation = Json::object();
+  bool forget = false;  // drop the client's received messages once handled (long runs: bounded memory)
   Gateway(const scenarios::Scenario& sc, Client& cl) : s(sc), c(cl) {}
 
   void handle_new() {
@@ -269,6 +270,10 @@ struct Gateway {
         c.publish("probe/result", Json{{"id", id}, {"time_s", s.time_s[row]}, {"errors", errors}}.dump());
         break;
       }
+    }
+    if (forget) {
+      c.received.clear();
+      seen = 0;
     }
   }
   std::int64_t processed() const {
