@@ -86,10 +86,7 @@ class MqttBus : public Bus {
     // A TLS failure before the first connection is the configuration's (the CA does not check the
     // broker's certificate, or the broker speaks no TLS there): retrying would not help. Later ones
     // (the broker came back with another certificate) are retried like any connection loss.
-    if (rc == MOSQ_ERR_TLS && !ever_connected_)
-      throw BrokerRefused("TLS to the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) + " failed (" +
-                          (last_error_.empty() ? std::string(mosquitto_strerror(rc)) : last_error_) +
-                          ") with mqtt.tls_ca_file \"" + c_.mqtt.tls_ca_file->string() + "\"");
+    if (rc == MOSQ_ERR_TLS && !ever_connected_) tls_failed(rc);
     if (rc != MOSQ_ERR_SUCCESS) {
       logger()->warn("mqtt: cannot connect to {}:{}: {}", c_.mqtt.host, c_.mqtt.port, mosquitto_strerror(rc));
       return false;
@@ -97,9 +94,7 @@ class MqttBus : public Bus {
     first_ = false;
     while (!online_ && refused_ < 0 && !stop) {
       const int lrc = mosquitto_loop(m_, 100, 1);
-      if (lrc == MOSQ_ERR_TLS && !ever_connected_)
-        throw BrokerRefused("TLS to the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) + " failed (" +
-                            (last_error_.empty() ? std::string(mosquitto_strerror(lrc)) : last_error_) + ")");
+      if (lrc == MOSQ_ERR_TLS && !ever_connected_) tls_failed(lrc);
       if (lrc != MOSQ_ERR_SUCCESS) break;
     }
     if (refused_ > 0)
@@ -120,6 +115,11 @@ class MqttBus : public Bus {
   bool online() const { return online_; }
 
  private:
+  [[noreturn]] void tls_failed(int rc) const {
+    throw BrokerRefused("TLS to the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) + " failed (" +
+                        (last_error_.empty() ? std::string(mosquitto_strerror(rc)) : last_error_) + ")" +
+                        (c_.mqtt.tls_ca_file ? " with mqtt.tls_ca_file \"" + c_.mqtt.tls_ca_file->string() + "\"" : ""));
+  }
   static void check(int rc, const char* what) {
     if (rc != MOSQ_ERR_SUCCESS) throw std::runtime_error(std::string("mqtt: ") + what + ": " + mosquitto_strerror(rc));
   }

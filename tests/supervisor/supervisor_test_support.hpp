@@ -157,6 +157,8 @@ struct Client {
   std::map<std::string, std::string> retained_last;
   std::int64_t acknowledged = 0;  // QoS 1 publishes the broker acknowledged
   bool persistent = false;
+  bool connected = false;  // the broker accepted the connection and has not been lost since
+  std::vector<std::pair<std::string, std::string>> pending;  // published while not connected
   Client(int port, const std::string& id, const std::string& user = "", const std::string& pw = "")
       : Client(port, id, ClientOptions{user, pw, std::nullopt, false}) {}
   Client(int port, const std::string& id, const ClientOptions& o) : persistent(o.persistent) {
@@ -170,6 +172,8 @@ struct Client {
       c->retained_last[msg->topic] = c->received.back().second;
     });
     mosquitto_publish_callback_set(m, [](mosquitto*, void* self, int) { ++static_cast<Client*>(self)->acknowledged; });
+    mosquitto_connect_callback_set(m, [](mosquitto*, void* self, int rc) { static_cast<Client*>(self)->connected = rc == 0; });
+    mosquitto_disconnect_callback_set(m, [](mosquitto*, void* self, int) { static_cast<Client*>(self)->connected = false; });
     REQUIRE(mosquitto_connect(m, "127.0.0.1", port, 30) == MOSQ_ERR_SUCCESS);
     REQUIRE(mosquitto_subscribe(m, nullptr, "alc/dmu-1/#", 1) == MOSQ_ERR_SUCCESS);
     for (int i = 0; i < 10; ++i) mosquitto_loop(m, 10, 1);
@@ -178,15 +182,29 @@ struct Client {
     mosquitto_disconnect(m);
     mosquitto_destroy(m);
   }
+  // QoS 1. A persistent client keeps what it publishes without a connection and sends it after the
+  // reconnection (a gateway queuing samples while the broker is away).
   void publish(const std::string& topic, const std::string& payload) {
-    REQUIRE(mosquitto_publish(m, nullptr, ("alc/dmu-1/" + topic).c_str(), static_cast<int>(payload.size()),
-                              payload.data(), 1, false) == MOSQ_ERR_SUCCESS);
+    if (persistent && !connected) {
+      pending.emplace_back(topic, payload);
+      return;
+    }
+    const int rc = mosquitto_publish(m, nullptr, ("alc/dmu-1/" + topic).c_str(), static_cast<int>(payload.size()),
+                                     payload.data(), 1, false);
+    if (persistent && rc != MOSQ_ERR_SUCCESS) pending.emplace_back(topic, payload);  // the loss not seen yet
+    else REQUIRE(rc == MOSQ_ERR_SUCCESS);
   }
   void loop(int ms = 20) {
     const int rc = mosquitto_loop(m, ms, 1);
     if (rc != MOSQ_ERR_SUCCESS && persistent) {
+      connected = false;
       sleep_ms(ms);
       mosquitto_reconnect(m);  // fails while the broker is down: tried again next time
+    }
+    if (connected && !pending.empty()) {
+      auto queued = std::move(pending);
+      pending.clear();
+      for (const auto& [t, p] : queued) publish(t, p);
     }
   }
   // Loops until `done()` or about `seconds` passed (a safety net against a hang, not a timed assertion).
