@@ -41,6 +41,7 @@ TEST_CASE("the broker restarts mid-run: the supervisor reconnects, is online aga
   Gateway g(s, c);
   const std::size_t rows = s.samples() - 30;  // the rest answers the last probe request
   const pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
   g.play(rows, rows / 2);
 
   // Messages the broker holds for the supervisor's session when it goes down: the supervisor is
@@ -108,6 +109,7 @@ TEST_CASE("TLS to the broker with the CA of its certificate works, and a wrong C
   write(dir / "s.toml", small_config(broker.port, "tls_ca_file = \"ca.pem\"\n"));
   Client c(broker.port, "observer", ClientOptions{"", "", certs.ca, false});
   pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
   REQUIRE(c.until([&] { return c.state().value("online", false); }, 60));
   c.publish("sample", sample_at(0.0));
   REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }, 60));

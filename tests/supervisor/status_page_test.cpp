@@ -101,6 +101,7 @@ TEST_CASE("the status page on 127.0.0.1 in a real browser: loads without console
   write(dir / "s.toml", small_config(broker.port) + "[status]\nlisten = \"" + std::to_string(port) + "\"\n");
   Client c(broker.port, "gateway");
   const pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
   REQUIRE(c.until([&] { return c.state().value("online", false); }));
   // Six hours of samples every minute; each probe request answered at once with known errors.
   std::set<std::int64_t> answered;
@@ -173,6 +174,7 @@ TEST_CASE("without a [status] section the supervisor listens on no port") {
   write(dir / "s.toml", small_config(broker.port));
   Client c(broker.port, "observer");
   const pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
   REQUIRE(c.until([&] { return c.state().value("online", false); }));
   c.publish("sample", sample_at(0.0));
   REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }));

@@ -90,6 +90,18 @@ inline int wait_exit(pid_t pid) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+// Stops (SIGKILL) and reaps a child still running when the guard goes: what a failed REQUIRE leaves.
+struct ChildGuard {
+  const pid_t& pid;
+  ~ChildGuard() {
+    if (pid > 0 && ::waitpid(pid, nullptr, WNOHANG) == 0) {
+      ::kill(pid, SIGCONT);
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+  }
+};
+
 inline void sleep_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
 
 // A mosquitto of the test's own on a free port of 127.0.0.1: anonymous, or with a password file and
