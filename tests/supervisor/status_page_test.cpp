@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "../report/report_test_support.hpp"
+#include "supervisor/config.hpp"
 #include "supervisor/status_page.hpp"
 #include "supervisor_test_support.hpp"
 
@@ -167,7 +168,7 @@ TEST_CASE("the status page on 127.0.0.1 in a real browser: loads without console
   CHECK_FALSE(port_open(port));
 }
 
-TEST_CASE("without a [status] section the supervisor listens on no port") {
+TEST_CASE("without a status section in its config the supervisor listens on no port") {
   MosquittoLib lib;
   const fs::path dir = temp_dir("no-status");
   Broker broker(dir, false);
@@ -181,4 +182,28 @@ TEST_CASE("without a [status] section the supervisor listens on no port") {
   CHECK(listening(pid).empty());
   ::kill(pid, SIGTERM);
   CHECK(wait_exit(pid) == 0);
+}
+
+TEST_CASE("the status section of the config: 127.0.0.1 unless another host is written, bad addresses name the key and value") {
+  const std::string base = small_config(1883);
+  auto parse = [&](const std::string& status) { return supervisor::parse_supervisor_config(base + status, "/tmp/s.toml"); };
+  CHECK_FALSE(parse("").status.has_value());
+  const auto c = parse("[status]\nlisten = \"8080\"\n");
+  REQUIRE(c.status.has_value());
+  CHECK(c.status->host == "127.0.0.1");
+  CHECK(c.status->port == 8080);
+  CHECK(c.status->window_s == 86400.0);
+  const auto d = parse("[status]\nlisten = \"0.0.0.0:9000\"\nwindow_h = 6\n");
+  CHECK(d.status->host == "0.0.0.0");
+  CHECK(d.status->window_s == 6 * 3600.0);
+  for (const std::string bad : {"\"\"", "\"abc\"", "\"127.0.0.1:0\"", "\"127.0.0.1:99999\"", "\"127.0.0.1:\"", "8080"}) {
+    INFO(bad);
+    try {
+      parse("[status]\nlisten = " + bad + "\n");
+      FAIL("accepted");
+    } catch (const supervisor::ConfigError& e) {
+      CHECK(std::string(e.what()).find("/tmp/s.toml: key 'status.listen', value " + bad) != std::string::npos);
+    }
+  }
+  CHECK_THROWS_WITH(parse("[status]\nlisten = \"8080\"\nport = 1\n"), Catch::Contains("key 'status.port', value 1: unknown key"));
 }
