@@ -7,7 +7,8 @@ ALC_JOBS="${ALC_JOBS:-$(nproc)}"
 
 # Build dependencies, all from Debian 12.
 ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsqlite3-dev sqlite3 libspdlog-dev
-              catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev libsvm-dev)
+              catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev libsvm-dev
+              libcpp-httplib-dev)
 
 # The fuzz build (fuzz/, README "Fuzzing"): clang with libFuzzer and its sanitizer runtimes.
 ALC_FUZZ_PACKAGES=(clang libclang-rt-14-dev)

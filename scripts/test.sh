@@ -5,8 +5,9 @@ source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 ensure_packages "${ALC_PACKAGES[@]}"
 # LinuxCNC (rs274 and the headless simulator) for the nc_interface tests; large, so only here.
 ensure_packages linuxcnc-uspace
-# The MQTT broker for the supervisor's tests (tests/supervisor/ starts its own on a free port).
-ensure_packages mosquitto
+# The MQTT broker for the supervisor's tests (tests/supervisor/ starts its own on a free port); openssl makes
+# the certificates of its TLS test.
+ensure_packages mosquitto openssl
 # SLURM and munge for the study's cluster test (tests/study/slurm_study_test.sh starts its own
 # daemons; the packages' services are not used).
 ensure_packages slurmctld slurmd slurm-client munge

@@ -512,6 +512,9 @@ const char* const kScript = R"(<script>
 
 }  // namespace
 
+const char* page_style() { return kStyle; }
+const char* dom_check_script() { return kScript; }
+
 std::string html_report(const std::filesystem::path& file, const ReportOptions& options, ReportStats* stats_out) {
   const storage::HistoryReader reader(file);
   const auto runs = reader.runs();

@@ -201,6 +201,24 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   }
   n.no_unknown_keys();
 
+  if (top.table()->contains("status")) {
+    Section st = top.sub("status");
+    StatusConfig sc;
+    // "PORT", ":PORT" or "HOST:PORT" (IPv4 or a name; the default host is 127.0.0.1).
+    const std::string listen = st.required_text("listen");
+    const auto colon = listen.rfind(':');
+    const std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
+    const std::string port = colon == std::string::npos ? listen : listen.substr(colon + 1);
+    if (!host.empty()) sc.host = host;
+    if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoi(port) < 1 || std::stoi(port) > 65535 || sc.host.find_first_of(" /[]") != std::string::npos)
+      st.fail("listen", "not \"PORT\" or \"HOST:PORT\" with a port from 1 to 65535");
+    sc.port = std::stoi(port);
+    if (auto v = st.number("window_h", 0.0)) sc.window_s = *v * 3600.0;
+    st.no_unknown_keys();
+    c.status = sc;
+  }
+
   Section l = top.sub("log");
   c.log.level = l.text("level");
   c.log.file = l.text("file");

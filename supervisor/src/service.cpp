@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "common/log.hpp"
+#include "supervisor/status_page.hpp"
 #include "supervisor/supervisor.hpp"
 
 namespace alc::supervisor {
@@ -55,6 +56,10 @@ class MqttBus : public Bus {
       static_cast<MqttBus*>(self)->message(msg);
     });
     mosquitto_publish_callback_set(m_, [](mosquitto*, void* self, int) { --static_cast<MqttBus*>(self)->unacked_; });
+    // libmosquitto names what failed (a TLS certificate, ...) only in its log: keep the latest error.
+    mosquitto_log_callback_set(m_, [](mosquitto*, void* self, int level, const char* text) {
+      if ((level & MOSQ_LOG_ERR) && text) static_cast<MqttBus*>(self)->last_error_ = text;
+    });
   }
   ~MqttBus() override {
     mosquitto_destroy(m_);
@@ -62,10 +67,12 @@ class MqttBus : public Bus {
   }
 
   void set_supervisor(Supervisor* s) { s_ = s; }
+  void set_status(StatusModel* m) { status_ = m; }
 
   void publish(const std::string& topic, const std::string& payload, bool retained) override {
     const std::string t = c_.mqtt.prefix + "/" + topic;
     const int rc = mosquitto_publish(m_, nullptr, t.c_str(), static_cast<int>(payload.size()), payload.data(), 1, retained);
+    if (status_) status_->published(topic, payload);
     if (rc == MOSQ_ERR_SUCCESS) ++unacked_;
     else logger()->warn("mqtt: publish on {} failed: {}", t, mosquitto_strerror(rc));
   }
@@ -73,15 +80,22 @@ class MqttBus : public Bus {
   // Connects (TCP) and waits for the broker's answer; throws BrokerRefused on a refusal.
   bool connect(const std::atomic<bool>& stop) {
     refused_ = -1;
+    last_error_.clear();
     const int rc = first_ ? mosquitto_connect(m_, c_.mqtt.host.c_str(), c_.mqtt.port, c_.mqtt.keepalive_s)
                           : mosquitto_reconnect(m_);
+    // A TLS failure before the first connection is the configuration's (the CA does not check the
+    // broker's certificate, or the broker speaks no TLS there): retrying would not help. Later ones
+    // (the broker came back with another certificate) are retried like any connection loss.
+    if (rc == MOSQ_ERR_TLS && !ever_connected_) tls_failed(rc);
     if (rc != MOSQ_ERR_SUCCESS) {
       logger()->warn("mqtt: cannot connect to {}:{}: {}", c_.mqtt.host, c_.mqtt.port, mosquitto_strerror(rc));
       return false;
     }
     first_ = false;
     while (!online_ && refused_ < 0 && !stop) {
-      if (mosquitto_loop(m_, 100, 1) != MOSQ_ERR_SUCCESS) break;
+      const int lrc = mosquitto_loop(m_, 100, 1);
+      if (lrc == MOSQ_ERR_TLS && !ever_connected_) tls_failed(lrc);
+      if (lrc != MOSQ_ERR_SUCCESS) break;
     }
     if (refused_ > 0)
       throw BrokerRefused("the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) +
@@ -101,6 +115,11 @@ class MqttBus : public Bus {
   bool online() const { return online_; }
 
  private:
+  [[noreturn]] void tls_failed(int rc) const {
+    throw BrokerRefused("TLS to the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) + " failed (" +
+                        (last_error_.empty() ? std::string(mosquitto_strerror(rc)) : last_error_) + ")" +
+                        (c_.mqtt.tls_ca_file ? " with mqtt.tls_ca_file \"" + c_.mqtt.tls_ca_file->string() + "\"" : ""));
+  }
   static void check(int rc, const char* what) {
     if (rc != MOSQ_ERR_SUCCESS) throw std::runtime_error(std::string("mqtt: ") + what + ": " + mosquitto_strerror(rc));
   }
@@ -111,6 +130,7 @@ class MqttBus : public Bus {
     }
     refused_ = 0;
     online_ = true;
+    ever_connected_ = true;
     unacked_ = 0;
     for (const char* t : {"/sample", "/probe/result"}) {
       const std::string topic = c_.mqtt.prefix + t;
@@ -124,12 +144,17 @@ class MqttBus : public Bus {
     const std::string own = c_.mqtt.prefix + "/";
     if (topic.rfind(own, 0) != 0) return;
     const std::string payload(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
+    const std::int64_t rejected = s_->counts().rejected;
     s_->on_message(topic.substr(own.size()), payload, wall_now());
+    if (status_ && topic == own + "probe/result" && s_->counts().rejected == rejected) status_->probe_result(payload);
   }
 
   const SupervisorConfig& c_;
   mosquitto* m_ = nullptr;
   Supervisor* s_ = nullptr;
+  StatusModel* status_ = nullptr;
+  std::string last_error_;
+  bool ever_connected_ = false;
   bool first_ = true;
   bool online_ = false;
   int refused_ = -1;
@@ -141,8 +166,18 @@ class MqttBus : public Bus {
 void run_service(const SupervisorConfig& config, const std::atomic<bool>& stop, const std::string& software_version) {
   const std::string offline = "{\"online\":false,\"machine_id\":\"" + config.machine_id + "\"}";
   MqttBus bus(config, offline);
+  // The status page (only with [status]) sees what is published from here on, before the first
+  // connection (the history's recovery publishes nothing).
+  std::unique_ptr<StatusModel> status;
+  if (config.status) {
+    status = std::make_unique<StatusModel>(config.machine_id, config.signals.outputs, config.status->window_s);
+    bus.set_status(status.get());
+  }
   Supervisor supervisor(config, bus, software_version);
   bus.set_supervisor(&supervisor);
+  if (status) status->published("state", supervisor.state_json(false));
+  std::unique_ptr<StatusServer> server;
+  if (config.status) server = std::make_unique<StatusServer>(*config.status, *status);
   double backoff_s = 0.5;
   while (!stop) {
     if (!bus.connect(stop)) {

@@ -14,25 +14,6 @@
 using namespace alc;
 using namespace alc::report;
 
-namespace {
-
-// The text of <pre id="alc-dom-check"> in a dumped DOM, entities decoded.
-std::string dom_check(const std::string& dom) {
-  const std::string open = "<pre id=\"alc-dom-check\" data-done=\"1\">";
-  const auto a = dom.find(open);
-  if (a == std::string::npos) return "";
-  const auto b = dom.find("</pre>", a);
-  std::string raw = dom.substr(a + open.size(), b - a - open.size()), text;
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    if (raw.compare(i, 5, "&amp;") == 0) text += '&', i += 4;
-    else if (raw.compare(i, 4, "&lt;") == 0) text += '<', i += 3;
-    else if (raw.compare(i, 4, "&gt;") == 0) text += '>', i += 3;
-    else text += raw[i];
-  }
-  return text;
-}
-
-}  // namespace
 
 TEST_CASE("browser: the report loads without console errors and its charts hold the expected series and points",
           "[report][browser]") {
@@ -46,7 +27,7 @@ TEST_CASE("browser: the report loads without console errors and its charts hold 
   REQUIRE(b.exit_code == 0);
   INFO(b.err);
   CHECK(b.err.find(":CONSOLE") == std::string::npos);  // no console message at all, errors included
-  const std::string text = dom_check(b.out);
+  const std::string text = test::dom_check(b.out);
   REQUIRE_FALSE(text.empty());
   const auto j = nlohmann::json::parse(text);
   CHECK(j.at("errors").empty());

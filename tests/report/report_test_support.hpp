@@ -81,19 +81,43 @@ struct Browser {
   std::string out, err;
 };
 
-// chromium --headless=new on a local file, with its own profile; console messages go to stderr
+// chromium --headless=new on a URL, with its own profile; console messages go to stderr
 // (--enable-logging=stderr: lines with ":CONSOLE").
-inline Browser chromium(const std::filesystem::path& dir, const std::string& args, const std::filesystem::path& page) {
-  const std::string cmd = "timeout 120 chromium --headless=new --no-sandbox --disable-gpu --user-data-dir=\"" +
-                          (dir / "profile").string() + "\" --enable-logging=stderr --v=0 " + args + " \"file://" +
-                          page.string() + "\" >\"" + (dir / "browser.out").string() + "\" 2>\"" +
-                          (dir / "browser.err").string() + "\" </dev/null";
+inline Browser chromium_url(const std::filesystem::path& dir, const std::string& args, const std::string& url) {
+  const std::string cmd = "timeout 120 chromium --headless=new --no-sandbox --disable-gpu --no-first-run "
+                          "--disable-background-networking --disable-component-update --disable-sync "
+                          "--user-data-dir=\"" +
+                          (dir / "profile").string() + "\" --enable-logging=stderr --v=0 " + args + " \"" + url +
+                          "\" >\"" + (dir / "browser.out").string() + "\" 2>\"" + (dir / "browser.err").string() +
+                          "\" </dev/null";
   const int status = std::system(cmd.c_str());
   Browser b;
   if (WIFEXITED(status)) b.exit_code = WEXITSTATUS(status);
   b.out = alc_test::slurp(dir / "browser.out");
   b.err = alc_test::slurp(dir / "browser.err");
   return b;
+}
+
+// The same on a local file.
+inline Browser chromium(const std::filesystem::path& dir, const std::string& args, const std::filesystem::path& page) {
+  return chromium_url(dir, args, "file://" + page.string());
+}
+
+// The text of <pre id="alc-dom-check"> in a dumped DOM, entities decoded (what the page's DOM-check
+// script wrote: the charts' series and points, script errors).
+inline std::string dom_check(const std::string& dom) {
+  const std::string open = "<pre id=\"alc-dom-check\" data-done=\"1\">";
+  const auto a = dom.find(open);
+  if (a == std::string::npos) return "";
+  const auto b = dom.find("</pre>", a);
+  std::string raw = dom.substr(a + open.size(), b - a - open.size()), text;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    if (raw.compare(i, 5, "&amp;") == 0) text += '&', i += 4;
+    else if (raw.compare(i, 4, "&lt;") == 0) text += '<', i += 3;
+    else if (raw.compare(i, 4, "&gt;") == 0) text += '>', i += 3;
+    else text += raw[i];
+  }
+  return text;
 }
 
 }  // namespace alc::report::test

@@ -37,4 +37,10 @@ struct ReportStats {
 // and UnknownRun for a run of options.runs not in the file.
 std::string html_report(const std::filesystem::path& file, const ReportOptions& options, ReportStats* stats = nullptr);
 
+// The report's stylesheet (a <style> element's content) and its DOM-check script (a whole <script>
+// element that writes, on load, what the charts drew into <pre id="alc-dom-check">): also used by the
+// supervisor's status page.
+const char* page_style();
+const char* dom_check_script();
+
 }  // namespace alc::report

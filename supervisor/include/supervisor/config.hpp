@@ -50,6 +50,13 @@ struct NcConfig {
   std::string sink = "none";                     // only "none" so far: offsets go out over MQTT only
 };
 
+// [status]: the read-only status page (docs/supervisor.md); off unless the section is there.
+struct StatusConfig {
+  std::string host = "127.0.0.1";     // another host only when written in `listen`
+  int port = 0;
+  double window_s = 86400.0;          // [s] machine time shown: the last day
+};
+
 struct LogConfig {
   std::optional<std::string> level;   // overrides --log-level
   std::optional<std::string> file;    // rotating log file
@@ -66,6 +73,7 @@ struct SupervisorConfig {
   NcConfig nc;
   nc::MachineConfig machine;          // of nc.machine, else the built-in defaults
   LogConfig log;
+  std::optional<StatusConfig> status;  // no page (nothing listens) without [status]
 };
 
 // Reads and checks the whole file; relative paths are taken from the file's directory.
