@@ -147,13 +147,17 @@ double NcLink::probe_z(int work_offset) {
   try {
     nc::LinuxcncrshClient& c = client();
     c.mdi({"G21 G90 " + nc::work_offset_name(work_offset), "G0 Z" + text(z + p.clearance_mm),
-           "G0 X" + text(x) + " Y" + text(y), "G0 Z" + text(z + p.approach_mm),
-           "G38.2 Z" + text(z - p.search_mm) + " F" + text(p.feed_mm_min)});
+           "G0 X" + text(x) + " Y" + text(y), "G0 Z" + text(z + p.approach_mm)});
+    c.request("get error");  // takes an older message off the error channel
+    c.mdi({"G38.2 Z" + text(z - p.search_mm) + " F" + text(p.feed_mm_min)});
+    // A move that ends without contact is an error of the NC (and leaves #5070 = 0).
+    const std::string error = c.request("get error");
     const std::vector<double> r = c.parameters({5070, 5061, 5062, 5063}, "the probe result #5070 #5061-#5063");
     c.mdi({"G0 Z" + text(z + p.clearance_mm)});
-    if (r[0] != 1.0)
+    if (error != "ERROR OK" || r[0] != 1.0 || !(r[3] > z - p.search_mm + 1e-6))
       throw nc::SinkError("G38.2 made no contact between Z" + text(z + p.approach_mm) + " and Z" +
-                          text(z - p.search_mm) + " (#5070 = " + text(r[0]) + ")");
+                          text(z - p.search_mm) + " (#5070 = " + text(r[0]) + ", #5063 = " + text(r[3]) +
+                          ", NC: '" + error + "')");
     failed_at_.reset();
     log::get("supervisor")->info("probe cycle: contact at Z {} (nominal {})", r[3], z);
     return r[3];

@@ -13,6 +13,7 @@
 //   probe/result message would (journaled, learned from at its own time).
 // Nothing here throws: every NC failure is an event.
 #include <cmath>
+#include <utility>
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
@@ -44,9 +45,11 @@ Json axis_json(const nc::AxisOffsets& o) {
 void Supervisor::on_nc_cycle() {
   if (!link_ || !link_->delivers()) return;
   const std::vector<nc::NcCommand>& sent = nc_->recorder().to_send();
-  const std::vector<nc::NcCommand> fresh(sent.begin() + static_cast<std::ptrdiff_t>(std::min(nc_sent_, sent.size())),
-                                         sent.end());
+  std::vector<nc::NcCommand> fresh(sent.begin() + static_cast<std::ptrdiff_t>(std::min(nc_sent_, sent.size())),
+                                   sent.end());
   nc_sent_ = sent.size();
+  // A probe interval that did not get through goes first (offsets are re-stepped by the observer).
+  if (nc_retry_ && !recovering_) fresh.insert(fresh.begin(), *std::exchange(nc_retry_, std::nullopt));
   if (!fresh.empty() && recovering_) {
     nc_held_ = nc_->state().in_force;  // delivered before the restart, as far as is known: sync_nc checks
   } else if (!fresh.empty()) {
@@ -80,6 +83,8 @@ void Supervisor::on_nc_cycle() {
              {"time_s", controller_.state().now_s},
              {"reason", message},
              {"held", axis_json(nc_held_)}});
+      for (std::size_t k = d.delivered; k < fresh.size(); ++k)
+        if (std::holds_alternative<nc::ProbeInterval>(fresh[k])) nc_retry_ = fresh[k];
       nc_failing_ = true;
       nc_synced_ = false;  // read it back before the next attempt
       roll_back_nc(nc_held_);

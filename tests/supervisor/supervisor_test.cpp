@@ -25,21 +25,14 @@
 #include "storage/history_reader.hpp"
 #include "supervisor/config.hpp"
 #include "supervisor/messages.hpp"
+#include "mqtt_test_support.hpp"
 
 using namespace alc;
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
+using namespace alc::supervisor::test;
 
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("alc-supervisor-" + name + "-" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 
 std::string config_text(const std::string& extra_signals = "", const std::string& mqtt = "") {
   return "machine_id = \"dmu-1\"\n[mqtt]\nhost = \"127.0.0.1\"\nport = 1883\n" + mqtt +
@@ -55,221 +48,6 @@ std::string error_of(const std::string& text) {
   }
   return "";
 }
-
-// ---- processes -------------------------------------------------------------------------------
-
-int free_port() {
-  const int s = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t n = sizeof a;
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &n);
-  ::close(s);
-  return ntohs(a.sin_port);
-}
-
-bool port_open(int port) {
-  const int s = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  const bool ok = ::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-  ::close(s);
-  return ok;
-}
-
-pid_t spawn(const std::vector<std::string>& argv, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    ::setpgid(0, 0);
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execvp(args[0], args.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-// Waits for the process; its exit status, or 128 + signal.
-int wait_exit(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-void sleep_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
-
-// A mosquitto of the test's own on a free port: anonymous, or with a password file and an ACL.
-struct Broker {
-  fs::path dir;
-  int port = 0;
-  pid_t pid = -1;
-  Broker(const fs::path& d, bool auth) : dir(d), port(free_port()) {
-    std::string conf = "per_listener_settings false\nlistener " + std::to_string(port) +
-                       " 127.0.0.1\npersistence false\nlog_dest file " + (dir / "mosquitto.log").string() +
-                       "\nuser root\n";
-    if (auth) {
-      REQUIRE(std::system(("mosquitto_passwd -c -b " + (dir / "passwd").string() + " alc alcpw && mosquitto_passwd -b " +
-                           (dir / "passwd").string() + " twin twinpw")
-                              .c_str()) == 0);
-      write(dir / "acl", "user alc\ntopic readwrite alc/dmu-1/#\nuser twin\ntopic readwrite alc/dmu-1/#\n");
-      conf += "allow_anonymous false\npassword_file " + (dir / "passwd").string() + "\nacl_file " +
-              (dir / "acl").string() + "\n";
-    } else {
-      conf += "allow_anonymous true\n";
-    }
-    write(dir / "mosquitto.conf", conf);
-    start();
-  }
-  void start() {
-    pid = spawn({"mosquitto", "-c", (dir / "mosquitto.conf").string()}, dir / "mosquitto.stderr");
-    for (int i = 0; i < 200 && !port_open(port); ++i) sleep_ms(25);
-    REQUIRE(port_open(port));
-  }
-  ~Broker() {
-    if (pid > 0) {
-      ::kill(pid, SIGTERM);
-      wait_exit(pid);
-    }
-  }
-};
-
-// A test's own MQTT client (the gateway and an observer of every topic).
-struct Client {
-  mosquitto* m = nullptr;
-  std::vector<std::pair<std::string, std::string>> received;
-  std::map<std::string, std::string> retained_last;
-  Client(int port, const std::string& id, const std::string& user = "", const std::string& pw = "") {
-    m = mosquitto_new(id.c_str(), true, this);
-    if (!user.empty()) mosquitto_username_pw_set(m, user.c_str(), pw.c_str());
-    mosquitto_message_callback_set(m, [](mosquitto*, void* self, const mosquitto_message* msg) {
-      auto* c = static_cast<Client*>(self);
-      c->received.emplace_back(msg->topic, std::string(static_cast<const char*>(msg->payload),
-                                                       static_cast<std::size_t>(msg->payloadlen)));
-      c->retained_last[msg->topic] = c->received.back().second;
-    });
-    REQUIRE(mosquitto_connect(m, "127.0.0.1", port, 30) == MOSQ_ERR_SUCCESS);
-    REQUIRE(mosquitto_subscribe(m, nullptr, "alc/dmu-1/#", 1) == MOSQ_ERR_SUCCESS);
-    for (int i = 0; i < 10; ++i) mosquitto_loop(m, 10, 1);
-  }
-  ~Client() {
-    mosquitto_disconnect(m);
-    mosquitto_destroy(m);
-  }
-  void publish(const std::string& topic, const std::string& payload) {
-    REQUIRE(mosquitto_publish(m, nullptr, ("alc/dmu-1/" + topic).c_str(), static_cast<int>(payload.size()),
-                              payload.data(), 1, false) == MOSQ_ERR_SUCCESS);
-  }
-  void loop(int ms = 20) { mosquitto_loop(m, ms, 1); }
-  // Loops until `done()` or about `seconds` passed (a safety net against a hang, not a timed assertion).
-  template <class F>
-  bool until(F done, double seconds = 120.0) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (!done()) {
-      if (std::chrono::steady_clock::now() > end) return false;
-      loop();
-    }
-    return true;
-  }
-  Json state() const {
-    const auto it = retained_last.find("alc/dmu-1/state");
-    return it == retained_last.end() ? Json::object() : Json::parse(it->second);
-  }
-  std::vector<Json> events() const {
-    std::vector<Json> out;
-    for (const auto& [t, p] : received)
-      if (t == "alc/dmu-1/event") out.push_back(Json::parse(p));
-    return out;
-  }
-};
-
-struct MosquittoLib {
-  MosquittoLib() { mosquitto_lib_init(); }
-  ~MosquittoLib() { mosquitto_lib_cleanup(); }
-};
-
-// The supervisor's config for case A on `port` (all of its inputs and outputs).
-std::string case_config(const scenarios::Scenario& s, int port, const std::string& mqtt_extra = "",
-                        const std::string& signals_extra = "") {
-  auto list = [](const std::vector<std::string>& names) {
-    std::string t = "[";
-    for (std::size_t i = 0; i < names.size(); ++i) t += (i ? ", \"" : "\"") + names[i] + "\"";
-    return t + "]";
-  };
-  return "machine_id = \"dmu-1\"\n[mqtt]\nport = " + std::to_string(port) + "\nprefix = \"alc/dmu-1\"\n" + mqtt_extra +
-         "[signals]\ninputs = " + list(s.input_names) + "\noutputs = " + list(s.output_names) +
-         "\nprobe_timeout_s = 86400\n" + signals_extra +
-         "[history]\ndb = \"h.sqlite\"\nsnapshot_every_h = 2\n[controller]\ncp = 6.5\ninterval = 2\n";
-}
-
-std::string sample_json(const scenarios::Scenario& s, std::size_t row) {
-  Json in = Json::object();
-  for (std::size_t c = 0; c < s.input_names.size(); ++c)
-    in[s.input_names[c]] = s.inputs(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(c));
-  return Json{{"time_s", s.time_s[row]}, {"inputs", in}}.dump();
-}
-
-// The twin gateway: publishes the case's samples (at most `window` ahead of what the supervisor has
-// processed) and answers each probe request once, in closed loop: the recorded reading of the first
-// probed row at or after the due time minus the compensation of the latest offsets message.
-struct Gateway {
-  const scenarios::Scenario& s;
-  Client& c;
-  std::size_t next_row = 0;
-  std::set<std::int64_t> answered;
-  std::size_t seen = 0;
-  Json compensation = Json::object();
-  Gateway(const scenarios::Scenario& sc, Client& cl) : s(sc), c(cl) {}
-
-  void handle_new() {
-    for (; seen < c.received.size(); ++seen) {
-      const auto& [topic, payload] = c.received[seen];
-      if (topic == "alc/dmu-1/offsets") compensation = Json::parse(payload)["compensation"];
-      if (topic != "alc/dmu-1/probe/request") continue;
-      const Json r = Json::parse(payload);
-      const auto id = r["id"].get<std::int64_t>();
-      if (!answered.insert(id).second) continue;
-      const double due = r["due_s"].get<double>();
-      for (std::size_t row = 0; row < s.samples(); ++row) {
-        if (s.time_s[row] < due || !std::isfinite(s.outputs(static_cast<Eigen::Index>(row), 0))) continue;
-        Json errors = Json::object();
-        for (std::size_t j = 0; j < s.output_names.size(); ++j) {
-          const double reading = s.outputs(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(j));
-          const Json& comp = compensation[s.output_names[j]];
-          errors[s.output_names[j]] = reading - (comp.is_number() ? comp.get<double>() : 0.0);
-        }
-        c.publish("probe/result", Json{{"id", id}, {"time_s", s.time_s[row]}, {"errors", errors}}.dump());
-        break;
-      }
-    }
-  }
-  std::int64_t processed() const {
-    const Json st = c.state();
-    return st.contains("samples") ? st["samples"].get<std::int64_t>() : 0;
-  }
-  // Plays rows until `rows` are processed and nothing is held; stops early (returns) when `stop_at`
-  // rows are processed.
-  void play(std::size_t rows, std::size_t stop_at = SIZE_MAX, std::size_t window = 10) {
-    c.until([&] {
-      handle_new();
-      const Json st = c.state();
-      if (!st.value("online", false)) return false;  // not subscribed yet: a sample would be lost
-      const auto done = static_cast<std::size_t>(processed());
-      if (done >= stop_at) return true;
-      const bool quiet = st.value("held", 1) == 0 && st.contains("outstanding_probe") && st["outstanding_probe"].is_null();
-      if (done >= rows && quiet) return done == next_row;
-      if (next_row < s.samples() && next_row < done + window) c.publish("sample", sample_json(s, next_row++));
-      return false;
-    });
-  }
-};
 
 // RMSE per output of (recorded measurement - stored prediction) at the probed rows after `from_s`.
 std::vector<double> rmse_of(const fs::path& db, const scenarios::Scenario& s, double from_s, std::size_t rows) {
@@ -294,21 +72,6 @@ std::vector<double> rmse_of(const fs::path& db, const scenarios::Scenario& s, do
   return sum;
 }
 
-// Load case A cut to its first `hours`.
-scenarios::Scenario case_a(double hours) {
-  scenarios::Scenario s = scenarios::simulate_case("A").scenario;
-  std::size_t rows = 0;
-  while (rows < s.samples() && s.time_s[rows] < s.time_s[0] + hours * 3600.0) ++rows;
-  s.time_s.resize(rows);
-  s.inputs.conservativeResize(static_cast<Eigen::Index>(rows), Eigen::NoChange);
-  s.outputs.conservativeResize(static_cast<Eigen::Index>(rows), Eigen::NoChange);
-  return s;
-}
-
-pid_t start_supervisor(const fs::path& dir) {
-  return spawn({ALC_CLI_PATH, "--log-level", "info", "supervise", "--config", (dir / "s.toml").string()},
-               dir / "supervisor.log");
-}
 
 }  // namespace
 

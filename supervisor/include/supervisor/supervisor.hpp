@@ -146,6 +146,7 @@ class Supervisor {
   std::size_t nc_sent_ = 0;                // entries of the NC observer's to_send() handed to the sink
   bool nc_synced_ = false;                 // nc_held_ was read back from the NC in this process
   bool nc_failing_ = false;                // the last delivery failed
+  std::optional<nc::NcCommand> nc_retry_;  // a probe interval not delivered yet (offsets re-step instead)
   std::int64_t journaled_probe_ = 0;       // id of the probe whose compensation is in the inbox
 };
 
