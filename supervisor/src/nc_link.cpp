@@ -23,7 +23,9 @@ ErrorSpace::ErrorSpace(const kinematics::MachineChain& chain, const std::vector<
   const auto n = static_cast<Eigen::Index>(outputs.size());
   j_ = Eigen::MatrixXd::Zero(5, n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!cancellable_[static_cast<std::size_t>(i)]) continue;
+    // Every location error moves the offsets the observer sends (E_B0C's position part too), so
+    // every one is a column; only the cancellable ones are reported.
+    if (kinematics::location_error_field(outputs[static_cast<std::size_t>(i)]) < 0) continue;
     kinematics::LocationErrors e{};
     kinematics::set_location_error(e, kinematics::location_error_field(outputs[static_cast<std::size_t>(i)]), 1.0);
     const kinematics::Compensation c = kinematics::compensate(chain_, {}, e);
@@ -42,8 +44,13 @@ Eigen::VectorXd ErrorSpace::offsets_vector(const nc::AxisOffsets& o) const {
 Eigen::VectorXd ErrorSpace::compensation(const nc::AxisOffsets& held, const Eigen::VectorXd& intended) const {
   Eigen::VectorXd p = Eigen::VectorXd::Zero(j_.cols());
   for (Eigen::Index i = 0; i < p.size() && i < intended.size(); ++i)
-    if (cancellable_[static_cast<std::size_t>(i)] && std::isfinite(intended(i))) p(i) = intended(i);
-  Eigen::VectorXd c = p + pinv_ * (offsets_vector(held) - j_ * p);
+    if (std::isfinite(intended(i))) p(i) = intended(i);
+  // How far along the intended offsets the held ones are (1: all of it, 0: none), then the rest of
+  // the held offsets by least norm.
+  const Eigen::VectorXd o = offsets_vector(held);
+  const Eigen::VectorXd jp = j_ * p;
+  const double t = jp.squaredNorm() > 0.0 ? jp.dot(o) / jp.squaredNorm() : 0.0;
+  Eigen::VectorXd c = t * p + pinv_ * (o - t * jp);
   for (Eigen::Index i = 0; i < c.size(); ++i)
     if (!cancellable_[static_cast<std::size_t>(i)]) c(i) = 0.0;
   return c;

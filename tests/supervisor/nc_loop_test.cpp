@@ -16,6 +16,9 @@
 #include "mqtt_test_support.hpp"
 #include "nc_interface/transports.hpp"
 #include "storage/history_reader.hpp"
+#include "supervisor/config.hpp"
+#include "supervisor/nc_link.hpp"
+#include "supervisor/supervisor.hpp"
 
 using namespace alc;
 using namespace alc::supervisor::test;
@@ -300,4 +303,177 @@ TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the 
     CHECK(p.measured.size() == 1);
   }
   CHECK(compensated);  // the offsets were in force while probing (closed loop)
+}
+
+// ---- without a simulator: the config, the error space, the spool sink ----------------------------
+
+namespace {
+
+std::string nc_error_of(const std::string& nc) {
+  const std::string base = "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_Z0T\"]\n"
+                           "[history]\ndb = \"h.sqlite\"\n[nc]\n";
+  try {
+    supervisor::parse_supervisor_config(base + nc, "/tmp/s.toml");
+  } catch (const supervisor::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+struct RecordingBus : supervisor::Bus {
+  std::vector<std::pair<std::string, std::string>> out;
+  void publish(const std::string& topic, const std::string& payload, bool) override { out.emplace_back(topic, payload); }
+  std::size_t count(const std::string& event_type) const {
+    std::size_t n = 0;
+    for (const auto& [t, p] : out) n += t == "event" && Json::parse(p).value("type", "") == event_type;
+    return n;
+  }
+  Json last(const std::string& topic) const {
+    for (auto it = out.rbegin(); it != out.rend(); ++it)
+      if (it->first == topic) return Json::parse(it->second);
+    return Json();
+  }
+};
+
+}  // namespace
+
+TEST_CASE("nc config: sinks, probe and linuxcncrsh keys are checked with the key and value named") {
+  CHECK(nc_error_of("sink = \"linuxcncrsh\"\nport = 5007\ntimeout_s = 3\nretry_s = 2\n").empty());
+  CHECK(nc_error_of("sink = \"tcp\"\n").find("key 'nc.sink', value \"tcp\": not \"none\", \"spool\" or \"linuxcncrsh\"") !=
+        std::string::npos);
+  CHECK(nc_error_of("sink = \"spool\"\n").find("key 'nc.spool_dir': missing") != std::string::npos);
+  CHECK(nc_error_of("sink = \"linuxcncrsh\"\nhost = \"10.0.0.5\"\n").find("key 'nc.host', value \"10.0.0.5\": linuxcncrsh is reached on localhost only") !=
+        std::string::npos);
+  CHECK(nc_error_of("sink = \"linuxcncrsh\"\ndialect = \"fanuc\"\n").find("key 'nc.dialect'") != std::string::npos);
+  CHECK(nc_error_of("probe = \"linuxcnc\"\n").find("key 'nc.probe_cycle.point_mm': missing") != std::string::npos);
+  CHECK(nc_error_of("probe = \"linuxcnc\"\n[nc.probe_cycle]\npoint_mm = [1, 2]\n").find("not an array of 3 numbers") !=
+        std::string::npos);
+  CHECK(nc_error_of("probe = \"linuxcnc\"\n[nc.probe_cycle]\npoint_mm = [1, 2, 3]\noutput = \"E_X0C\"\n")
+            .find("key 'nc.probe_cycle.output', value \"E_X0C\": only \"E_Z0T\"") != std::string::npos);
+  CHECK(nc_error_of("probe = \"linuxcnc\"\n[nc.probe_cycle]\npoint_mm = [1, 2, 3]\nfeed = 3\n")
+            .find("key 'nc.probe_cycle.feed', value 3: unknown key") != std::string::npos);
+  const auto c = supervisor::parse_supervisor_config(
+      "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_Z0T\"]\n[history]\ndb = \"h.sqlite\"\n"
+      "[nc]\nsink = \"spool\"\nspool_dir = \"out\"\nprobe = \"linuxcnc\"\nport = 6000\n[nc.probe_cycle]\npoint_mm = [1, 2, -3.5]\n",
+      "/tmp/x/s.toml");
+  CHECK(c.nc.spool_dir == fs::path("/tmp/x/out"));
+  CHECK(c.nc.linuxcncrsh.port == 6000);
+  CHECK(c.nc.probe_cycle.point_mm[2] == -3.5);
+  CHECK(c.nc.uses_linuxcncrsh());
+}
+
+TEST_CASE("nc error space: the offsets held give back the compensation they cancel") {
+  const std::vector<std::string> outputs = {"E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_A0C", "E_B0C", "E_C0C", "E_other"};
+  const auto chain = kinematics::MachineChain::ac_trunnion();
+  std::vector<bool> cancellable;
+  for (const auto& name : outputs) {
+    const int f = kinematics::location_error_field(name);
+    cancellable.push_back(f >= 0 && name != "E_B0C");  // an A-C table cannot cancel E_B0C
+  }
+  const supervisor::ErrorSpace space(chain, outputs, cancellable);
+  Eigen::VectorXd p(8);
+  p << 12.0, -7.5, 20.0, 3.0, 40.0, 25.0, -30.0, 5.0;
+  const auto held_for = [&](const Eigen::VectorXd& v) {
+    return nc::to_axis_offsets(kinematics::compensate(chain, {}, kinematics::location_errors_of(outputs, v)), chain);
+  };
+  // The NC holds what was sent for p: p back, except what no axis cancels.
+  const Eigen::VectorXd back = space.compensation(held_for(p), p);
+  // (J is the linearisation of the exact chain: 1e-2 covers its second-order terms at 40 µm/m.)
+  for (Eigen::Index i = 0; i < 8; ++i) CHECK_THAT(back(i), Catch::Matchers::WithinAbs(cancellable[static_cast<std::size_t>(i)] ? p(i) : 0.0, 1e-2));
+  // It holds nothing: nothing is compensated, whatever was meant (also E_X0C and E_R0T, which act
+  // alike on X).
+  const Eigen::VectorXd none = space.compensation(nc::AxisOffsets{}, p);
+  for (Eigen::Index i = 0; i < 8; ++i) CHECK_THAT(none(i), Catch::Matchers::WithinAbs(0.0, 1e-9));
+  // It holds half of p (a step toward it): half of p.
+  const Eigen::VectorXd half = space.compensation(held_for(p / 2.0), p);
+  for (Eigen::Index i = 0; i < 8; ++i)
+    CHECK_THAT(half(i), Catch::Matchers::WithinAbs(cancellable[static_cast<std::size_t>(i)] ? p(i) / 2.0 : 0.0, 1e-2));
+  // An operator's X offset on top: the X errors take it, the others stay.
+  nc::AxisOffsets more = held_for(p);
+  more.x_mm += 0.002;
+  const Eigen::VectorXd moved = space.compensation(more, p);
+  // 2 µm more X offset cancels 2 µm more of the X errors (E_X0C and E_R0T both act on X here)
+  CHECK_THAT(moved(0) + moved(3) - back(0) - back(3), Catch::Matchers::WithinAbs(2.0, 0.2));
+  CHECK_THAT(moved(2), Catch::Matchers::WithinAbs(back(2), 0.5));
+  // E_Z0T only: the Z offset held, in µm of E_Z0T (an offset of -0.0123 mm cancels 12.3 µm).
+  const supervisor::ErrorSpace z_only(chain, {"E_Z0T"}, {true});
+  nc::AxisOffsets z;
+  z.z_mm = -0.0123;
+  CHECK_THAT(z_only.compensation(z, Eigen::VectorXd::Constant(1, 99.0))(0), Catch::Matchers::WithinAbs(12.3, 1e-9));
+}
+
+TEST_CASE("nc spool: offsets are written as programs after the gate, a spool that fails is recorded and held") {
+  const fs::path dir = temp_dir("nc-spool");
+  fs::create_directories(dir / "spool");
+  const scenarios::Scenario s = case_a(5.0);
+  std::string text = case_config(s, 1);
+  text.replace(text.find("cp = 6.5\ninterval = 2\n"), 22, "cp = 2\ncp-interval = 15\ninterval = 1\n");
+  write(dir / "s.toml", text + "[nc]\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
+  const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
+  RecordingBus bus;
+  std::int64_t answered = 0;
+  const auto play = [&](supervisor::Supervisor& sup, std::size_t from, std::size_t to) {
+    for (std::size_t row = from; row < to; ++row) {
+      sup.on_message("sample", sample_json(s, row), 0.0);
+      const Json request = bus.last("probe/request");
+      if (request.is_null() || request["id"].get<std::int64_t>() <= answered) continue;
+      answered = request["id"].get<std::int64_t>();
+      const Json comp = bus.last("offsets").is_null() ? Json::object() : bus.last("offsets")["compensation"];
+      Json errors = Json::object();
+      for (std::size_t j = 0; j < s.output_names.size(); ++j) {
+        const double reading = s.outputs(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(j));
+        const Json& c = comp.is_object() && comp.contains(s.output_names[j]) ? comp[s.output_names[j]] : Json();
+        if (std::isfinite(reading)) errors[s.output_names[j]] = reading - (c.is_number() ? c.get<double>() : 0.0);
+      }
+      sup.on_message("probe/result", Json{{"id", answered}, {"time_s", s.time_s[row]}, {"errors", errors}}.dump(), 0.0);
+    }
+  };
+  const std::size_t rows = s.samples();
+  {
+    supervisor::Supervisor sup(config, bus, "test");
+    sup.announce();
+    play(sup, 0, rows * 3 / 5);
+    // Every command the gate let through is a program file; the last offsets one is the published axis.
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "spool")) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    REQUIRE(files.size() >= 3);
+    std::string last_g10;
+    for (const auto& f : files) {
+      std::ifstream in(f);
+      for (std::string line; std::getline(in, line);)
+        if (line.rfind("G21 G10 L2 P1", 0) == 0) last_g10 = line;
+    }
+    const Json axis = bus.last("offsets")["axis"];
+    char expect[200];
+    std::snprintf(expect, sizeof expect, "G21 G10 L2 P1 X%.4f Y%.4f Z%.4f A%.4f C%.4f", axis["x_mm"].get<double>(),
+                  axis["y_mm"].get<double>(), axis["z_mm"].get<double>(), axis["a_deg"].get<double>(),
+                  axis["c_deg"].get<double>());
+    CHECK(last_g10 == std::string(expect));
+    CHECK(bus.count("NcDeliveryFailed") == 0);
+    // The spool directory goes away: each delivery fails, nothing else changes.
+    fs::rename(dir / "spool", dir / "spool.gone");
+    const Json held = bus.last("offsets")["axis"];
+    play(sup, rows * 3 / 5, rows * 4 / 5);
+    CHECK(bus.count("NcDeliveryFailed") >= 1);
+    CHECK(bus.last("offsets")["axis"] == held);
+    // Back: the offsets are stepped again from what was written last.
+    fs::rename(dir / "spool.gone", dir / "spool");
+    play(sup, rows * 4 / 5, rows);
+    CHECK(bus.count("NcDeliveryResumed") >= 1);
+    sup.stop();
+  }
+  const storage::HistoryReader h(dir / "h.sqlite");
+  std::size_t taken = 0, failed = 0;
+  for (const auto& r : h.nc_commands(h.runs().back().run_id)) {
+    CHECK(r.sink == "spool " + (dir / "spool").string());
+    taken += r.delivered == std::optional<bool>(true);
+    if (r.delivered == std::optional<bool>(false)) {
+      ++failed;
+      CHECK(r.delivery_message.find("not a directory") != std::string::npos);
+    }
+  }
+  CHECK(taken >= 3);
+  CHECK(failed >= 1);
+  CHECK(h.input_samples(h.runs().back().run_id).size() == rows);
 }

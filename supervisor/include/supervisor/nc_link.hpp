@@ -18,13 +18,14 @@
 namespace alc::supervisor {
 
 // The compensation in force in the error space of the outputs, from the axis offsets an NC holds.
-// J maps the outputs an axis offset cancels to the offsets that cancel them at the reference pose
-// (kinematics::compensate of a unit error, so X Y Z in µm and the rotary axes in µrad); the other
-// outputs are 0. Of the compensations whose offsets are `held` (least squares when none is exact),
-// compensation() gives the one nearest `intended`: intended + J⁺·(held − J·intended). So when the NC
-// holds what was sent for `intended`, it is `intended` (to the NC resolution); when it holds
-// something else (a step toward the target, an older value, an operator's change) it is what those
-// offsets cancel, split between outputs that act alike (E_X0C and E_R0T on x) as `intended` splits them.
+// J maps the location errors among the outputs to the offsets that cancel them at the reference pose
+// (kinematics::compensate of a unit error: X Y Z in µm, the rotary axes in µrad). The offsets sent
+// were J·intended; of what the NC holds, `held`, compensation() takes the part along them, t =
+// (J·intended)·held / |J·intended|², and the rest by least norm: t·intended + J⁺·(held − t·J·intended).
+// So it is `intended` when the NC holds what was sent (to the NC resolution), 0 when it holds zero
+// offsets, t·intended when it holds a fraction t of them, and what other offsets (an operator's
+// change) cancel otherwise. Outputs no axis cancels (E_B0C on an A-C table, non-location outputs)
+// are reported 0, as the supervisor's compensation always has them.
 class ErrorSpace {
  public:
   ErrorSpace(const kinematics::MachineChain& chain, const std::vector<std::string>& outputs,
