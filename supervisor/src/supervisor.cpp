@@ -460,7 +460,7 @@ std::string Supervisor::state_json(bool online) const {
 
 void Supervisor::announce() {
   publish("state", state_json(true), true);
-  if (link_ && !nc_synced_) sync_nc();
+  if (link_ && !nc_synced_) sync_nc(true);
   if (controller_.state().started) publish_offsets(controller_.state().now_s);
   if (outstanding_) publish_request();
   after_message_nc();

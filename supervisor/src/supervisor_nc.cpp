@@ -54,7 +54,7 @@ void Supervisor::on_nc_cycle() {
     nc_held_ = nc_->state().in_force;  // delivered before the restart, as far as is known: sync_nc checks
   } else if (!fresh.empty()) {
     const nc::AxisOffsets believed = nc_held_;
-    std::string error = nc_synced_ ? std::string() : sync_nc();
+    std::string error = nc_synced_ ? std::string() : sync_nc(false);
     NcDelivery d;
     if (error.empty() && !same_on_nc(nc_held_, believed)) {
       error = "not sent: the NC holds " + axis_json(nc_held_).dump() + ", not the " + axis_json(believed).dump() +
@@ -103,8 +103,9 @@ void Supervisor::roll_back_nc(const nc::AxisOffsets& held) {
 }
 
 // Reads back what the NC holds; when it is not what the supervisor believes, the NC observer continues
-// from it. Returns the error (empty when read back).
-std::string Supervisor::sync_nc() {
+// from it. Returns the error (empty when read back). settle_rows (at a (re)start, nothing being sent):
+// the nc_commands rows still without a delivery (rebuilt by the recovery) get what the read-back says.
+std::string Supervisor::sync_nc(bool settle_rows) {
   if (!link_ || !link_->reads_back() || !link_->delivers()) return "";
   nc::AxisOffsets held;
   try {
@@ -115,6 +116,11 @@ std::string Supervisor::sync_nc() {
   }
   nc_synced_ = true;
   const nc::AxisOffsets in_force = nc_->state().in_force;
+  if (settle_rows)
+    writer_->record_delivery(lifecycle_->run(), link_->sink_name(), same_on_nc(held, in_force),
+                             same_on_nc(held, in_force)
+                                 ? "read back at the start: the NC holds the offsets in force"
+                                 : "read back at the start: the NC holds " + axis_json(held).dump() + ", not these");
   if (!same_on_nc(held, in_force)) {
     logger()->warn("the NC holds {}, not the offsets in force {}: continuing from what it holds",
                    axis_json(held).dump(), axis_json(in_force).dump());

@@ -105,7 +105,7 @@ class Supervisor {
   // run the probe cycle on LinuxCNC.
   void on_nc_cycle();
   void roll_back_nc(const nc::AxisOffsets& held);
-  std::string sync_nc();
+  std::string sync_nc(bool settle_rows);
   void after_message_nc();
   void journal_probe_compensation();
   void run_nc_probe();
