@@ -209,13 +209,11 @@ double LinuxcncrshClient::machine_mm_per_unit() {
   return mm_per_unit_;
 }
 
-std::array<double, 6> LinuxcncrshClient::work_offset_values(int work_offset) {
-  const std::string name = work_offset_name(work_offset);  // throws for anything but 1…6
-  const double mm = machine_mm_per_unit();
-  const int first = 5201 + 20 * work_offset;  // G54: 5221 (X) … 5226 (C)
+std::vector<double> LinuxcncrshClient::parameters(const std::vector<int>& numbers, const std::string& what) {
+  if (numbers.empty()) return {};
   const std::string tag = "ALC-READBACK-" + readback_nonce_ + "-" + std::to_string(++readback_count_);
   std::string line = "(DEBUG," + tag;
-  for (int k = 0; k < 6; ++k) line += " #" + std::to_string(first + k);
+  for (int n : numbers) line += " #" + std::to_string(n);
   line += ")";
   set("mode mdi");
   set("set_wait done");
@@ -227,17 +225,26 @@ std::array<double, 6> LinuxcncrshClient::work_offset_values(int work_offset) {
     const std::string reply = request("get operator_display");
     if (reply.rfind(prefix, 0) == 0) {
       std::istringstream in(reply.substr(prefix.size()));
-      std::array<double, 6> out{};
+      std::vector<double> out(numbers.size());
       for (double& v : out) in >> v;
-      if (in.fail()) throw SinkError("linuxcncrsh: unexpected read-back of " + name + ": '" + reply + "'");
-      for (int k = 0; k < 3; ++k) out[static_cast<std::size_t>(k)] *= mm;  // lengths: machine units -> mm
+      if (in.fail()) throw SinkError("linuxcncrsh: unexpected read-back of " + what + ": '" + reply + "'");
       return out;
     }
     if (std::chrono::steady_clock::now() > deadline)
-      throw SinkError("linuxcncrsh: the read-back of " + name + " did not reach the operator display within " +
+      throw SinkError("linuxcncrsh: the read-back of " + what + " did not reach the operator display within " +
                       std::to_string(options_.timeout_s) + " s (last reply '" + reply + "')");
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+}
+
+std::array<double, 6> LinuxcncrshClient::work_offset_values(int work_offset) {
+  const std::string name = work_offset_name(work_offset);  // throws for anything but 1…6
+  const double mm = machine_mm_per_unit();
+  const int first = 5201 + 20 * work_offset;  // G54: 5221 (X) … 5226 (C)
+  const std::vector<double> got = parameters({first, first + 1, first + 2, first + 3, first + 4, first + 5}, name);
+  std::array<double, 6> out{};
+  for (std::size_t k = 0; k < 6; ++k) out[k] = got[k] * (k < 3 ? mm : 1.0);  // lengths: machine units -> mm
+  return out;
 }
 
 LinuxcncrshSink::LinuxcncrshSink(LinuxcncrshOptions options, DialectOptions nc)

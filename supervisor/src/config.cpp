@@ -1,5 +1,6 @@
 #include "supervisor/config.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -132,6 +133,59 @@ void read_controller(Section s, SupervisorConfig& c) {
   }
 }
 
+// [nc] after nc.machine: sink, probe, their connection and the probe cycle.
+void read_nc(Section& n, SupervisorConfig& c) {
+  NcConfig& nc = c.nc;
+  if (auto v = n.text("sink")) {
+    if (*v != "none" && *v != "spool" && *v != "linuxcncrsh") n.fail("sink", "not \"none\", \"spool\" or \"linuxcncrsh\"");
+    nc.sink = *v;
+  }
+  if (auto v = n.text("probe")) {
+    if (*v != "gateway" && *v != "linuxcnc") n.fail("probe", "not \"gateway\" or \"linuxcnc\"");
+    nc.probe = *v;
+  }
+  if (auto v = n.text("dialect")) {
+    const auto d = nc::parse_dialect(*v);
+    if (!d) n.fail("dialect", "not \"linuxcnc\", \"fanuc\", \"sinumerik\" or \"heidenhain\"");
+    if (*d != nc::Dialect::LinuxCNC && nc.sink == "linuxcncrsh") n.fail("dialect", "sink \"linuxcncrsh\" takes \"linuxcnc\" only");
+    nc.dialect = *d;
+  }
+  if (auto v = n.text("spool_dir")) nc.spool_dir = relative_to(c.file, *v);
+  if (nc.sink == "spool" && !nc.spool_dir) n.fail("spool_dir", "missing (sink = \"spool\" writes its programs there)");
+  if (auto v = n.text("host")) {
+    if (*v != "127.0.0.1" && *v != "localhost" && *v != "::1") n.fail("host", "linuxcncrsh is reached on localhost only");
+    nc.linuxcncrsh.host = *v;
+  }
+  if (auto v = n.integer("port", 1, 65535)) nc.linuxcncrsh.port = static_cast<int>(*v);
+  if (auto v = n.number("timeout_s", 0.0)) nc.linuxcncrsh.timeout_s = *v;
+  if (auto v = n.number("retry_s", 0.0)) nc.retry_s = *v;
+  Section p = n.sub("probe_cycle");
+  NcProbeCycle& pc = nc.probe_cycle;
+  if (auto v = p.text("output")) pc.output = *v;
+  if (pc.output != "E_Z0T") p.fail("output", "only \"E_Z0T\" is measured by the NC probe cycle so far");
+  if (nc.probe == "linuxcnc" &&
+      std::find(c.signals.outputs.begin(), c.signals.outputs.end(), pc.output) == c.signals.outputs.end())
+    p.fail("output", "not one of signals.outputs");
+  if (const toml::node* v = p.get("point_mm")) {
+    const toml::array* a = v->as_array();
+    if (!a || a->size() != 3) p.fail("point_mm", "not an array of 3 numbers [x, y, z]");
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto x = a->get(k)->value<double>();
+      if (!x || !std::isfinite(*x)) p.fail("point_mm", "not an array of 3 finite numbers [x, y, z]");
+      pc.point_mm[k] = *x;
+    }
+  } else if (nc.probe == "linuxcnc") {
+    p.fail("point_mm", "missing (probe = \"linuxcnc\" probes there)");
+  }
+  if (auto v = p.number("clearance_mm", 0.0)) pc.clearance_mm = *v;
+  if (auto v = p.number("approach_mm", 0.0)) pc.approach_mm = *v;
+  if (auto v = p.number("search_mm", 0.0)) pc.search_mm = *v;
+  if (auto v = p.number("feed_mm_min", 0.0)) pc.feed_mm_min = *v;
+  if (pc.clearance_mm < pc.approach_mm) p.fail("clearance_mm", "must be at least approach_mm");
+  p.no_unknown_keys();
+  n.no_unknown_keys();
+}
+
 }  // namespace
 
 SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std::filesystem::path& file) {
@@ -194,12 +248,7 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
       throw ConfigError(name, "nc.machine", "\"" + *v + "\"", e.what());
     }
   }
-  if (auto v = n.text("sink")) {
-    if (*v != "none")
-      n.fail("sink", "only \"none\" is supported so far (offsets go out on the MQTT topic PREFIX/offsets)");
-    c.nc.sink = *v;
-  }
-  n.no_unknown_keys();
+  read_nc(n, c);
 
   if (top.table()->contains("status")) {
     Section st = top.sub("status");

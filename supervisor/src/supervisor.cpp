@@ -11,6 +11,7 @@
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
 #include "supervisor/inbox.hpp"
+#include "supervisor/nc_link.hpp"
 
 namespace alc::supervisor {
 
@@ -86,6 +87,7 @@ class Supervisor::Tap : public runtime::Observer {
       }
       s_.event(std::move(j));
     }
+    s_.on_nc_cycle();
   }
   nc::AxisOffsets last_in_force_;
 
@@ -118,6 +120,10 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
     }
     cancellable_.push_back(can);
   }
+  if (config.nc.sink != "none" || config.nc.probe != "gateway") {
+    link_ = std::make_unique<NcLink>(config);
+    error_space_ = std::make_unique<ErrorSpace>(config.machine.chain, config.signals.outputs, cancellable_);
+  }
   driver_.set_machine({config.machine.chain, {}});
   storage::WriterOptions w;
   w.create_directories = true;
@@ -125,6 +131,7 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
   writer_ = std::make_unique<storage::HistoryWriter>(config.history.db, w);
   inbox_ = std::make_unique<Inbox>(config.history.db.string() + ".inbox");
   begin_or_resume();
+  nc_held_ = nc_->state().in_force;  // until read back (sync_nc)
 }
 
 Supervisor::~Supervisor() {
@@ -157,10 +164,12 @@ void Supervisor::begin_or_resume() {
     lifecycle_ = std::make_unique<runtime::RunLifecycle>(*writer_, record, every);
   const storage::RunId run = lifecycle_->run();
   recorder_ = std::make_unique<runtime::HistoryRecorder>(*writer_, run, !record.offset_names.empty());
-  nc_ = std::make_unique<runtime::NcCommandObserver>(config_.signals.outputs,
-                                                     runtime::nc_observer_options(config_.machine));
-  nc_->set_history({writer_.get(), run, "mqtt:" + config_.mqtt.prefix + "/offsets", nc::Dialect::LinuxCNC,
-                    config_.machine.nc});
+  runtime::NcObserverOptions nc_options = runtime::nc_observer_options(config_.machine);
+  nc_options.dialect = config_.nc.dialect;
+  nc_ = std::make_unique<runtime::NcCommandObserver>(config_.signals.outputs, nc_options);
+  nc_->set_history({writer_.get(), run,
+                    link_ && link_->delivers() ? link_->sink_name() : "mqtt:" + config_.mqtt.prefix + "/offsets",
+                    config_.nc.dialect, config_.machine.nc});
   tap_ = std::make_unique<Tap>(*this);
   tap_->last_in_force_ = nc_->state().in_force;
   driver_.add(*recorder_);
@@ -262,8 +271,13 @@ void Supervisor::on_message(const std::string& topic, const std::string& payload
                       std::to_string(config_.mqtt.max_payload_bytes));
     return;
   }
+  if (topic != "sample" && topic != "probe/result") {
+    reject(topic, "not a topic the supervisor reads");
+    return publish("state", state_json(true), true);
+  }
   const std::int64_t before = counts_.received;
   process(topic, payload, -1);
+  after_message_nc();
   if (counts_.received != before) {
     last_sample_wall_s_ = wall_s;
     if (stale_) {
@@ -324,6 +338,7 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     if (idle()) next_seq_ = s + 1;
     return;
   }
+  if (topic == "nc/compensation") return apply_probe_compensation(payload);  // journaled, see supervisor_nc.cpp
   reject(topic, "not a topic the supervisor reads");
 }
 
@@ -371,6 +386,7 @@ void Supervisor::feed(const SampleMessage& m) {
     lifecycle_->on_sample_done(s, controller_, controller_.state().samples);
     if (snapshots_ != before) inbox_->prune(next_seq_);
     nc_->forget_commands();
+    nc_sent_ = 0;
   }
 }
 
@@ -381,6 +397,7 @@ void Supervisor::request_probe(double trigger_s) {
 }
 
 void Supervisor::publish_request() {
+  if (config_.nc.probe == "linuxcnc") return;  // the supervisor runs the probe cycle itself
   publish("probe/request", Json{{"id", outstanding_->id},
                                 {"due_s", outstanding_->due_s},
                                 {"phase", std::string(to_string(controller_.phase()))}}
@@ -443,8 +460,10 @@ std::string Supervisor::state_json(bool online) const {
 
 void Supervisor::announce() {
   publish("state", state_json(true), true);
+  if (link_ && !nc_synced_) sync_nc(true);
   if (controller_.state().started) publish_offsets(controller_.state().now_s);
   if (outstanding_) publish_request();
+  after_message_nc();
 }
 
 void Supervisor::stop() {

@@ -23,13 +23,16 @@
 #include "nc_interface/safety.hpp"
 #include "nc_interface/transports.hpp"
 #include "nc_test_support.hpp"
+#include "../linuxcnc_sim_support.hpp"
 
 using namespace alc::nc;
 using alc::nc::test::g10_offsets;
 using alc::nc::test::on_path;
 using alc::nc::test::read_text;
 using alc::nc::test::require_program;
+using alc::nc::test::MachineLock;
 using alc::nc::test::Rs274Run;
+using alc::nc::test::Simulator;
 using alc::nc::test::var_value;
 using alc::nc::test::write_text;
 using Catch::Matchers::WithinAbs;
@@ -216,119 +219,6 @@ TEST_CASE("linuxcnc rs274: a long random seeded sequence through the safety gate
   std::filesystem::remove_all(dir);
 }
 
-namespace {
-
-// The headless simulator: XYZAC, trivkins, simulated homing, linuxcncrsh as the display.
-std::string sim_ini(int port) {
-  std::ostringstream s;
-  s << "[EMC]\nVERSION = 1.1\nMACHINE = ALC-NC-TEST\nDEBUG = 0\n"
-    << "[DISPLAY]\nDISPLAY = linuxcncrsh -p " << port << "\n"
-    << "[TASK]\nTASK = milltask\nCYCLE_TIME = 0.010\n"
-    << "[RS274NGC]\nPARAMETER_FILE = sim.var\n"
-    << "[EMCMOT]\nEMCMOT = motmod\nCOMM_TIMEOUT = 1.0\nSERVO_PERIOD = 1000000\n"
-    << "[EMCIO]\nEMCIO = io\nCYCLE_TIME = 0.100\nTOOL_TABLE = sim.tbl\n"
-    << "[HAL]\nHALFILE = LIB:basic_sim.tcl -no_use_hal_manualtoolchange\n"
-    << "[TRAJ]\nCOORDINATES = X Y Z A C\nLINEAR_UNITS = mm\nANGULAR_UNITS = degree\nMAX_LINEAR_VELOCITY = 50\n"
-    << "[KINS]\nKINEMATICS = trivkins coordinates=XYZAC\nJOINTS = 5\n";
-  const char* axes = "XYZAC";
-  for (int j = 0; j < 5; ++j) {
-    const bool linear = j < 3;
-    const int lim = linear ? 500 : 3600;
-    s << "[AXIS_" << axes[j] << "]\nMAX_VELOCITY = 50\nMAX_ACCELERATION = 500\nMIN_LIMIT = -" << lim
-      << "\nMAX_LIMIT = " << lim << "\n"
-      << "[JOINT_" << j << "]\nTYPE = " << (linear ? "LINEAR" : "ANGULAR")
-      << "\nHOME = 0\nMAX_VELOCITY = 50\nMAX_ACCELERATION = 500\nMIN_LIMIT = -" << lim << "\nMAX_LIMIT = " << lim
-      << "\nFERROR = 10\nMIN_FERROR = 1\nHOME_OFFSET = 0\nHOME_SEARCH_VEL = 0\nHOME_LATCH_VEL = 0\nHOME_SEQUENCE = 0\n";
-  }
-  return s.str();
-}
-
-// Runs `linuxcnc -r sim.ini` in its own process group; stops it by its PID (never by name).
-class Simulator {
- public:
-  Simulator(std::filesystem::path dir, int port) : dir_(std::move(dir)), port_(port) {
-    write_text(dir_ / "sim.ini", sim_ini(port));
-    write_text(dir_ / "sim.var", "3001 0.0\n");
-    write_text(dir_ / "sim.tbl", "T1 P1 Z0 D0 ;\n");
-    const auto fifo_dir = dir_ / "rtapi";
-    std::filesystem::create_directories(fifo_dir);
-    const bool root = ::geteuid() == 0;
-    // As root, rtapi_app drops to RTAPI_UID and needs its socket in a directory that user owns.
-    if (root && ::chown(fifo_dir.c_str(), 65534, 65534) != 0) FAIL("cannot chown " << fifo_dir << " to nobody");
-    if (root) std::filesystem::permissions(dir_, std::filesystem::perms::all, std::filesystem::perm_options::add);
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::setsid();
-      if (::chdir(dir_.c_str()) != 0) ::_exit(126);
-      const int log = ::open("run.log", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      ::dup2(log, 1);
-      ::dup2(log, 2);
-      ::unsetenv("DISPLAY");
-      if (root) {
-        ::setenv("RTAPI_UID", "65534", 1);
-        ::setenv("RTAPI_FIFO_PATH", (fifo_dir / "rtapi_fifo").c_str(), 1);
-      }
-      ::execlp("linuxcnc", "linuxcnc", "-r", "sim.ini", static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
-  }
-
-  bool running() {
-    if (pid_ <= 0) return false;
-    int status = 0;
-    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-      pid_ = -1;
-      return false;
-    }
-    return true;
-  }
-
-  std::string log() const { return read_text(dir_ / "run.log"); }
-
-  // Stops by asking linuxcncrsh to shut down, then by signals to the process group; bounded.
-  void stop(LinuxcncrshClient* client) {
-    if (client && client->connected()) {
-      try {
-        client->request("shutdown");
-      } catch (const std::exception&) {
-      }
-    }
-    for (int sig : {0, SIGTERM, SIGKILL}) {
-      if (sig != 0 && pid_ > 0) ::kill(-pid_, sig);
-      for (int i = 0; i < 300 && running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      if (!running()) return;
-    }
-  }
-
-  ~Simulator() { stop(nullptr); }
-
- private:
-  std::filesystem::path dir_;
-  int port_;
-  pid_t pid_ = -1;
-};
-
-// One simulator on the machine at a time (LinuxCNC allows one instance, /tmp/linuxcnc.lock).
-class MachineLock {
- public:
-  MachineLock() {
-    fd_ = ::open("/tmp/alc_linuxcnc_sim.flock", O_RDWR | O_CREAT, 0666);
-    for (int i = 0; i < 1800 && fd_ >= 0; ++i) {
-      if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    FAIL("another LinuxCNC simulator test held /tmp/alc_linuxcnc_sim.flock for 3 minutes");
-  }
-  ~MachineLock() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-
- private:
-  int fd_ = -1;
-};
-
-}  // namespace
-
 TEST_CASE("linuxcnc simulator: offsets sent over linuxcncrsh are applied and read back", "[linuxcnc][sim]") {
   require_program("linuxcnc");
   require_program("linuxcncrsh");
@@ -341,27 +231,8 @@ TEST_CASE("linuxcnc simulator: offsets sent over linuxcncrsh are applied and rea
   LinuxcncrshOptions options;
   options.port = port;
   options.timeout_s = 20.0;
-  LinuxcncrshClient client(options);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(90);
-  while (!client.connected()) {
-    if (!sim.running()) FAIL("linuxcnc exited before linuxcncrsh listened; its log:\n" << sim.log());
-    if (std::chrono::steady_clock::now() > deadline) {
-      sim.stop(nullptr);
-      FAIL("linuxcncrsh did not listen on port " << port << " within 90 s; log:\n" << sim.log());
-    }
-    try {
-      client.connect();
-    } catch (const SinkError&) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    }
-  }
+  sim.wait_ready(options);
   try {
-    client.set("estop off");
-    client.set("machine on");
-    client.set("home -1");
-    for (int i = 0; i < 100 && client.request("get joint_homed").rfind("JOINT_HOMED YES YES YES YES YES", 0) != 0; ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    client.close();  // the sink opens its own session
     LinuxcncrshSink sink(options);
     CommandQueue queue;
     const std::vector<NcCommand> commands{offsets(0.0123, -0.004, 0.01, 0.001, {}, -0.002), ProbeInterval{30.0, {}},

@@ -94,6 +94,10 @@ class LinuxcncrshClient {
   // "(DEBUG,ALC-READBACK-… #5221 …)" and `get operator_display`. Valid whichever work offset is
   // active and whatever G92 is. Switches to MDI mode; the message also shows on an operator GUI.
   std::array<double, 6> work_offset_values(int work_offset);
+  // The values of numbered parameters (e.g. 5070 and 5061…5063 after a G38.2 probe move), as the
+  // interpreter holds them in machine units, by one "(DEBUG,ALC-READBACK-… #N …)" MDI line and `get
+  // operator_display`. Switches to MDI mode. `what` names them in an error.
+  std::vector<double> parameters(const std::vector<int>& numbers, const std::string& what);
 
  private:
   std::string read_line();
@@ -114,6 +118,9 @@ class LinuxcncrshSink : public Sink {
   explicit LinuxcncrshSink(LinuxcncrshOptions options = {}, DialectOptions nc = {});
   std::string name() const override;
   void deliver(const NcCommand& command) override;
+  // Its session, for what else a user does on the same machine (read-backs, probe cycles): one
+  // session, since linuxcncrsh gives control to one at a time.
+  LinuxcncrshClient& client() { return client_; }
 
  private:
   LinuxcncrshOptions options_;

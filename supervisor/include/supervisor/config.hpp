@@ -1,6 +1,7 @@
 #pragma once
 // The supervisor's configuration (TOML): machine, broker, signals, history, controller parameters
 // (the same names and units as `alc replay`'s options), optional NC. docs/supervisor.md lists every key.
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -9,6 +10,7 @@
 
 #include "alc/controller.hpp"
 #include "nc_interface/machine_config.hpp"
+#include "nc_interface/transports.hpp"
 #include "runtime/parameter_options.hpp"
 #include "storage/history_writer.hpp"
 
@@ -45,9 +47,29 @@ struct HistoryConfig {
   storage::Durability durability = storage::Durability::Process;
 };
 
+// The probe cycle the supervisor runs itself on LinuxCNC ([nc] probe = "linuxcnc"): G38.2 along -Z
+// onto a surface at the nominal point, which measures E_Z0T (docs/supervisor.md, "Probe cycles on
+// the NC").
+struct NcProbeCycle {
+  std::string output = "E_Z0T";                 // the error it measures (only E_Z0T so far)
+  std::array<double, 3> point_mm{0.0, 0.0, 0.0}; // [mm] nominal contact point, work coordinates
+  double clearance_mm = 5.0;                    // [mm] above the point for the moves in X and Y
+  double approach_mm = 0.5;                     // [mm] G38.2 starts this far above the point ...
+  double search_mm = 0.5;                       // [mm] ... and gives up this far below it
+  double feed_mm_min = 60.0;                    // [mm/min] probing feed
+};
+
 struct NcConfig {
   std::optional<std::filesystem::path> machine;  // machine config (chain, work offset, safety limits)
-  std::string sink = "none";                     // only "none" so far: offsets go out over MQTT only
+  std::string sink = "none";                     // "none" (MQTT only), "spool" or "linuxcncrsh"
+  std::string probe = "gateway";                 // "gateway" (PREFIX/probe/request) or "linuxcnc"
+  nc::Dialect dialect = nc::Dialect::LinuxCNC;   // of the spool's programs (linuxcncrsh: LinuxCNC)
+  std::optional<std::filesystem::path> spool_dir;  // sink = "spool": where the programs go
+  nc::LinuxcncrshOptions linuxcncrsh;            // host (localhost only), port, timeout_s
+  double retry_s = 5.0;                          // [s] wall clock after a failure before the NC is tried again
+  NcProbeCycle probe_cycle;
+  // Whether the supervisor talks to LinuxCNC over linuxcncrsh (for the offsets or the probe cycle).
+  bool uses_linuxcncrsh() const { return sink == "linuxcncrsh" || probe == "linuxcnc"; }
 };
 
 // [status]: the read-only status page (docs/supervisor.md); off unless the section is there.

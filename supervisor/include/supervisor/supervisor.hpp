@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "alc/controller.hpp"
+#include "nc_interface/commands.hpp"
 #include "runtime/driver.hpp"
 #include "supervisor/config.hpp"
 #include "supervisor/messages.hpp"
@@ -34,6 +35,8 @@ class HistoryWriter;
 namespace alc::supervisor {
 
 class Inbox;
+class NcLink;
+class ErrorSpace;
 
 class Bus {
  public:
@@ -97,6 +100,16 @@ class Supervisor {
   std::string extras_json() const;
   void restore_extras(const std::string& json);
   void begin_or_resume();
+  // The NC (supervisor_nc.cpp): deliver what the gate let through in this cycle, roll back to what the
+  // NC is known to hold on a failure; read back and journal the compensation in force for a probe;
+  // run the probe cycle on LinuxCNC.
+  void on_nc_cycle();
+  void roll_back_nc(const nc::AxisOffsets& held);
+  std::string sync_nc(bool settle_rows);
+  void after_message_nc();
+  void journal_probe_compensation();
+  void run_nc_probe();
+  void apply_probe_compensation(const std::string& payload);
 
   const SupervisorConfig& config_;
   Bus& bus_;
@@ -127,6 +140,14 @@ class Supervisor {
   double last_sample_wall_s_ = 0.0;
   bool stopped_ = false;
   SupervisorCounts counts_;
+  std::unique_ptr<NcLink> link_;           // [nc] sink "spool"/"linuxcncrsh" or probe "linuxcnc"
+  std::unique_ptr<ErrorSpace> error_space_;
+  nc::AxisOffsets nc_held_;                // what the NC is known to hold (delivered or read back)
+  std::size_t nc_sent_ = 0;                // entries of the NC observer's to_send() handed to the sink
+  bool nc_synced_ = false;                 // nc_held_ was read back from the NC in this process
+  bool nc_failing_ = false;                // the last delivery failed
+  std::optional<nc::NcCommand> nc_retry_;  // a probe interval not delivered yet (offsets re-step instead)
+  std::int64_t journaled_probe_ = 0;       // id of the probe whose compensation is in the inbox
 };
 
 }  // namespace alc::supervisor
