@@ -91,7 +91,7 @@ TEST_CASE("browser: the report of a study file shows its Pareto figure and heat 
   REQUIRE(b.exit_code == 0);
   INFO(b.err);
   CHECK(b.err.find(":CONSOLE") == std::string::npos);
-  const std::string text = dom_check(b.out);
+  const std::string text = test::dom_check(b.out);
   REQUIRE_FALSE(text.empty());
   const auto j = nlohmann::json::parse(text);
   CHECK(j.at("errors").empty());
