@@ -505,6 +505,11 @@ const char* const kScript = R"(<script>
                                       render_ms: Math.round(performance.now())});
     out.setAttribute('data-done', '1');
   }
+  // Once the document is parsed (the charts are inline SVG: all there), and again after the first
+  // frame for render_ms: a headless browser that dumps the DOM before a frame was drawn (seen under
+  // load) still finds the counts.
+  if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', count);
+  else count();
   window.addEventListener('load', function () { requestAnimationFrame(function () { setTimeout(count, 0); }); });
 })();
 </script>

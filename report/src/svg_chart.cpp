@@ -221,7 +221,7 @@ std::string render_svg(const Chart& c) {
     for (const Marker* m : in_range) d.append("M").append(num(X(m->x))).append(" ").append(num(top)).append("V").append(num(pb));
     o += "<path class=\"marker marker-" + escape_xml(kind) + "\" data-markers=\"" + std::to_string(in_range.size()) +
          "\" d=\"" + d + "\"><title>" + std::to_string(in_range.size()) + " x " + escape_xml(kind) +
-         " (each one in the tables below)</title></path>\n";
+         "</title></path>\n";
   }
   const auto buckets = static_cast<std::size_t>(std::max(1.0, pr - pl));
   for (const auto& s : c.series) {

@@ -14,6 +14,7 @@
 
 #include "../linuxcnc_sim_support.hpp"
 #include "supervisor_test_support.hpp"
+#include "nc_interface/nc_number.hpp"
 #include "nc_interface/transports.hpp"
 #include "storage/history_reader.hpp"
 #include "supervisor/config.hpp"
@@ -32,10 +33,12 @@ int sim_port() { return 20000 + static_cast<int>((::getpid() + 7919) % 20000); }
 // The supervisor's config: case A's signals, the NC on the simulator's linuxcncrsh.
 std::string nc_config(const scenarios::Scenario& s, int broker_port, int sim_port, const std::string& nc_extra) {
   // A short calibration phase with fewer probes: a model, offsets and post-CP probes within hours.
+  // The guard off: these tests are about the NC path and want the model's offsets as they are (after
+  // a 2-h CP the guard's range of measured errors is still narrow and holds growing errors off).
   std::string text = case_config(s, broker_port);
   const std::string cp = "cp = 6.5\ninterval = 2\n";
   REQUIRE(text.find(cp) != std::string::npos);
-  text.replace(text.find(cp), cp.size(), "cp = 2\ncp-interval = 15\ninterval = 1\n");
+  text.replace(text.find(cp), cp.size(), "cp = 2\ncp-interval = 15\ninterval = 1\nguard = false\n");
   return text + "[nc]\nmachine = \"machine.toml\"\nsink = \"linuxcncrsh\"\nport = " +
          std::to_string(sim_port) + "\ntimeout_s = 20\nretry_s = 1\n" + nc_extra;
 }
@@ -407,7 +410,7 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   fs::create_directories(dir / "spool");
   const scenarios::Scenario s = case_a(5.0);
   std::string text = case_config(s, 1);
-  text.replace(text.find("cp = 6.5\ninterval = 2\n"), 22, "cp = 2\ncp-interval = 15\ninterval = 1\n");
+  text.replace(text.find("cp = 6.5\ninterval = 2\n"), 22, "cp = 2\ncp-interval = 15\ninterval = 1\nguard = false\n");
   write(dir / "s.toml", text + "[nc]\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
   const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
   RecordingBus bus;
@@ -445,11 +448,13 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
         if (line.rfind("G21 G10 L2 P1", 0) == 0) last_g10 = line;
     }
     const Json axis = bus.last("offsets")["axis"];
-    char expect[200];
-    std::snprintf(expect, sizeof expect, "G21 G10 L2 P1 X%.4f Y%.4f Z%.4f A%.4f C%.4f", axis["x_mm"].get<double>(),
-                  axis["y_mm"].get<double>(), axis["z_mm"].get<double>(), axis["a_deg"].get<double>(),
-                  axis["c_deg"].get<double>());
-    CHECK(last_g10 == std::string(expect));
+    // As the control reads it: the NC's number format (4 decimals, no sign on a value that prints as 0).
+    const auto word = [&](const char* letter, const char* key) {
+      return std::string(" ") + letter + nc::format_nc_number(axis[key].get<double>());
+    };
+    const std::string expect = "G21 G10 L2 P1" + word("X", "x_mm") + word("Y", "y_mm") + word("Z", "z_mm") +
+                               word("A", "a_deg") + word("C", "c_deg");
+    CHECK(last_g10 == expect);
     CHECK(bus.count("NcDeliveryFailed") == 0);
     // The spool directory goes away: each delivery fails, nothing else changes.
     fs::rename(dir / "spool", dir / "spool.gone");
