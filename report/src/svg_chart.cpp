@@ -131,7 +131,8 @@ std::vector<double> nice_ticks(double lo, double hi, int target, bool hours) {
 std::string render_svg(const Chart& c) {
   const int W = c.width, H = c.height;
   const double pl = kMarginLeft, pr = W - kMarginRight, pt = kMarginTop, pb = H - kMarginBottom;
-  const auto [x0, x1] = x_domain(c);
+  const std::pair<double, double> domain = x_domain(c);
+  const double x0 = domain.first, x1 = domain.second;  // plain names: lambdas below capture them (clang 14)
   // y domain: finite values of every series and band, 5 % padding.
   double ylo = std::numeric_limits<double>::infinity(), yhi = -ylo;
   for (const auto& s : c.series)
