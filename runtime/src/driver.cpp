@@ -11,6 +11,12 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
+
+// An event told at info level (phase changes, rejected models, the guard's decisions).
+void log_event(const ControllerEvent& e) {
+  log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ",
+                            e.reason);
+}
 }  // namespace
 
 Cycle::Cycle(Kind kind, const Sample& sample, const ProbeMeasurement* probe, const ControllerOutput& out,
@@ -56,7 +62,7 @@ ControllerOutput Driver::sample(const Sample& sample) {
   for (const ControllerEvent& e : out.events)
     if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
         e.type == ControllerEvent::Type::Guard)
-      log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ", e.reason);
+      log_event(e);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -79,7 +85,7 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
                                  implausible_logged_.end();
     if (first_fault) implausible_logged_.push_back(e.output);
     if (e.type == ControllerEvent::Type::Guard) {
-      log::get("runtime")->info("t = {} s: {}: {}: {}", e.time_s, to_string(e.type), e.output, e.reason);
+      log_event(e);
       continue;
     }
     log::get("runtime")->log(first_fault ? spdlog::level::warn : spdlog::level::debug, "t = {} s: {}: {}{}", e.time_s,
