@@ -38,6 +38,28 @@ void on_signal(int sig) {
   g_stop = true;
 }
 
+// SIGINT and SIGTERM go to on_signal while it lives; the handlers before are back when it ends
+// (also when the study throws).
+class StopSignals {
+ public:
+  StopSignals() {
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
+
 struct StudyArgs {
   std::string grid;
   std::string case_name;
@@ -290,22 +312,11 @@ void run_study_command(const StudyArgs& a) {
   };
   g_stop = false;
   g_signal = 0;
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  struct sigaction old_int {}, old_term {};
-  sigaction(SIGINT, &sa, &old_int);
-  sigaction(SIGTERM, &sa, &old_term);
   study::StudyStats st;
-  try {
+  {
+    const StopSignals signals;
     st = study::run_study(cases, info.sets, o);
-  } catch (...) {
-    sigaction(SIGINT, &old_int, nullptr);
-    sigaction(SIGTERM, &old_term, nullptr);
-    throw;
   }
-  sigaction(SIGINT, &old_int, nullptr);
-  sigaction(SIGTERM, &old_term, nullptr);
   progress.finish();
   const std::size_t computed = rows.size() - reused;
   if (st.stopped || g_stop) {
