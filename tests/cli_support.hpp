@@ -9,6 +9,8 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <system_error>
+#include <utility>
 
 namespace alc_test {
 
@@ -29,6 +31,21 @@ inline std::filesystem::path work_dir(const std::string& tag) {
   std::filesystem::create_directories(dir);
   return dir;
 }
+
+// A fresh, empty directory `dir` for one test, removed with its files when the test ends.
+struct Scratch {
+  explicit Scratch(std::filesystem::path d) : dir(std::move(d)) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  std::filesystem::path dir;
+};
 
 // Runs `alc ARGS` (ARGS as a shell would split them) with stdin from /dev/null.
 inline CliRun run_alc(const std::string& args, const std::string& tag) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -22,15 +23,31 @@ namespace {
 
 CliRun run(const std::string& args) { return alc_test::run_alc(args, "reliability_cli_test"); }
 
+// A fresh directory `name` of one test, removed at its end.
+alc_test::Scratch scratch(const std::string& name) {
+  return alc_test::Scratch(alc_test::work_dir("reliability_cli_test") / name);
+}
+
+// Case A simulated into `csv` (alc simulate) and read back.
+scenarios::Scenario simulated_case_a(const fs::path& csv) {
+  REQUIRE(run("simulate --case A --out \"" + csv.string() + "\"").exit_code == 0);
+  return scenarios::read_scenario_csv(csv);
+}
+
+// The column of `name` in `names`, which must hold it.
+Eigen::Index column(const std::vector<std::string>& names, const std::string& name) {
+  const auto i = static_cast<Eigen::Index>(std::find(names.begin(), names.end(), name) - names.begin());
+  REQUIRE(i < static_cast<Eigen::Index>(names.size()));
+  return i;
+}
+
 }  // namespace
 
 TEST_CASE("alc replay --resume refuses another recording under the same file name naming both hashes (issue 13 item 6)") {
-  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "same_name";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const alc_test::Scratch scratch_dir = scratch("same_name");
+  const fs::path& dir = scratch_dir.dir;
   const fs::path csv = dir / "rec.csv", db = dir / "h.sqlite";
-  REQUIRE(run("simulate --case A --out \"" + csv.string() + "\"").exit_code == 0);
-  const std::string first = scenarios::content_hash(scenarios::read_scenario_csv(csv));
+  const std::string first = scenarios::content_hash(simulated_case_a(csv));
   REQUIRE(run("replay \"" + csv.string() + "\" --db \"" + db.string() + "\" --stop-at 8").exit_code == 0);
   REQUIRE(run("simulate --case A --seed 7 --out \"" + csv.string() + "\"").exit_code == 0);
   const std::string second = scenarios::content_hash(scenarios::read_scenario_csv(csv));
@@ -39,7 +56,6 @@ TEST_CASE("alc replay --resume refuses another recording under the same file nam
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Matchers::Contains("of 'file " + csv.string() + "' was recorded from other data: content hash " +
                                               first + " stored, " + second + " given"));
-  fs::remove_all(dir);
 }
 
 namespace {
@@ -63,9 +79,8 @@ void damage_snapshot(const fs::path& db, const std::string& id) {
 }  // namespace
 
 TEST_CASE("a damaged snapshot is reported by db check and skipped by --resume, which says so (issue 13 item 5)") {
-  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "snapshot";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const alc_test::Scratch scratch_dir = scratch("snapshot");
+  const fs::path& dir = scratch_dir.dir;
   const fs::path db = dir / "h.sqlite";
   const CliRun whole = run("replay --case A --json");
   REQUIRE(whole.exit_code == 0);
@@ -95,13 +110,11 @@ TEST_CASE("a damaged snapshot is reported by db check and skipped by --resume, w
                                 Catch::Matchers::Contains("snapshot 1 at"));
     CHECK(sql(db, "SELECT count(*) FROM input_samples") + " " + sql(db, "SELECT status FROM runs") == rows);
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("resume on an empty file or a dangling symbolic link is refused and creates nothing (issue 13 item 12)") {
-  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "resume_nothing";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const alc_test::Scratch scratch_dir = scratch("resume_nothing");
+  const fs::path& dir = scratch_dir.dir;
   { std::ofstream(dir / "empty.sqlite"); }
   fs::create_symlink(dir / "nowhere.sqlite", dir / "dangling.sqlite");
   const std::pair<std::string, std::string> cases[] = {{"empty.sqlite", "the file is empty"},
@@ -120,20 +133,16 @@ TEST_CASE("resume on an empty file or a dangling symbolic link is refused and cr
   std::size_t entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
   CHECK(entries == 2);  // no -wal, -shm or journal files either
-  fs::remove_all(dir);
 }
 
 TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set aside for that output and the "
           "other outputs are learned as in the clean run (issue 13 item 3)") {
-  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "implausible";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const alc_test::Scratch scratch_dir = scratch("implausible");
+  const fs::path& dir = scratch_dir.dir;
   const fs::path clean = dir / "clean.csv", faulty = dir / "faulty.csv";
-  REQUIRE(run("simulate --case A --out \"" + clean.string() + "\"").exit_code == 0);
-  scenarios::Scenario s = scenarios::read_scenario_csv(clean);
+  scenarios::Scenario s = simulated_case_a(clean);
   const auto names = s.output_names;
-  const auto x = static_cast<Eigen::Index>(std::find(names.begin(), names.end(), "E_X0C") - names.begin());
-  REQUIRE(x < static_cast<Eigen::Index>(names.size()));
+  const Eigen::Index x = column(names, "E_X0C");
   int replaced = 0;
   for (Eigen::Index r = 0; r < s.outputs.rows(); ++r)
     if (!std::isnan(s.outputs(r, x))) {
@@ -173,19 +182,14 @@ TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set asi
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Matchers::Contains("plausible"));
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("an absurd temperature reading (a sensor fault) sets the sample aside with its reason (issue 13 item 3)") {
-  const fs::path dir = alc_test::work_dir("reliability_cli_test") / "implausible_input";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const alc_test::Scratch scratch_dir = scratch("implausible_input");
+  const fs::path& dir = scratch_dir.dir;
   const fs::path clean = dir / "clean.csv", faulty = dir / "faulty.csv";
-  REQUIRE(run("simulate --case A --out \"" + clean.string() + "\"").exit_code == 0);
-  scenarios::Scenario s = scenarios::read_scenario_csv(clean);
-  const auto t = static_cast<Eigen::Index>(
-      std::find(s.input_names.begin(), s.input_names.end(), "T_ENV") - s.input_names.begin());
-  REQUIRE(t < static_cast<Eigen::Index>(s.input_names.size()));
+  scenarios::Scenario s = simulated_case_a(clean);
+  const Eigen::Index t = column(s.input_names, "T_ENV");
   s.inputs(5000, t) = -1e308;  // one sample, after CP
   scenarios::write_scenario_csv(faulty, s);
   const CliRun r = run("replay \"" + faulty.string() + "\" --json");
@@ -194,5 +198,4 @@ TEST_CASE("an absurd temperature reading (a sensor fault) sets the sample aside 
   const auto j = nlohmann::json::parse(r.out);
   CHECK(j.at("updates").get<int>() > 0);
   for (const std::string& name : s.output_names) CHECK(j.at("outputs").at(name).at("P99").is_number());
-  fs::remove_all(dir);
 }

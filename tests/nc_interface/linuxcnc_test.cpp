@@ -52,16 +52,12 @@ constexpr double kMmPerInch = 25.4;
 constexpr double kVarFileTolMm = 0.5e-6 * kMmPerInch + 1e-9;  // [mm]
 constexpr double kReadBackTol = 0.5e-4;                       // [mm] or [°] sim read-back vs 4-decimal text
 
+// The shared offsets() with A and B as given (each may be absent).
 AxisOffsets offsets(double x, double y, double z, std::optional<double> a, std::optional<double> b, double c,
                     int work_offset = 1) {
-  AxisOffsets o;
-  o.x_mm = x;
-  o.y_mm = y;
-  o.z_mm = z;
+  AxisOffsets o = alc::nc::test::offsets(x, y, z, 0.0, c, work_offset);
   o.a_deg = a;
   o.b_deg = b;
-  o.c_deg = c;
-  o.work_offset = work_offset;
   return o;
 }
 

@@ -79,12 +79,7 @@ TEST_CASE("browser: the report of a study file shows its Pareto figure and heat 
           "[report][browser]") {
   const test::Scratch scratch("browser-study");
   const auto& dir = scratch.dir;
-  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
-  const auto db = dir / "study.sqlite";
-  const auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
-                                       db.string() + "\"",
-                                   "report_browser_study");
-  REQUIRE(r.exit_code == 0);
+  const auto db = test::small_study(dir, "report_browser_study");
   const auto page = dir / "study.html";
   test::io_write(page, html_report(db, {}));
   const test::Browser b = test::chromium(dir, "--virtual-time-budget=10000 --dump-dom", page);

@@ -158,12 +158,7 @@ TEST_CASE("report of a study file: the study's Pareto front of each case and its
           "[report][html][cli]") {
   const test::Scratch scratch("study");
   const auto& dir = scratch.dir;
-  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
-  const auto db = dir / "study.sqlite";
-  auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
-                                 db.string() + "\"",
-                             "report_study");
-  REQUIRE(r.exit_code == 0);
+  const auto db = test::small_study(dir, "report_study");
   ReportStats stats;
   const std::string html = html_report(db, {}, &stats);
   CHECK(stats.study);
@@ -178,7 +173,7 @@ TEST_CASE("report of a study file: the study's Pareto front of each case and its
   CHECK(html.find("<?xml") == std::string::npos);  // inline SVG elements, not documents
   // The very figures `alc study report --svg` writes.
   const auto svg = dir / "svg";
-  r = alc_test::run_alc("study report \"" + db.string() + "\" --svg \"" + svg.string() + "\"", "report_study");
+  const auto r = alc_test::run_alc("study report \"" + db.string() + "\" --svg \"" + svg.string() + "\"", "report_study");
   REQUIRE(r.exit_code == 0);
   std::size_t files = 0;
   for (const auto& f : std::filesystem::directory_iterator(svg)) {

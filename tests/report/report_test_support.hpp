@@ -2,11 +2,13 @@
 // Shared by the report tests: a short history (case A cut to 30 h: CP, an NG phase, model updates,
 // offsets sent to an NC directory, and one refused offset command added), the report written from
 // it, and headless chromium run on a file.
+#include <catch2/catch.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "../cli_support.hpp"
@@ -34,19 +36,10 @@ struct ShortHistory {
 };
 
 // A fresh directory per test process and name, removed with its files at the end of the test.
-struct Scratch {
+struct Scratch : alc_test::Scratch {
   explicit Scratch(const std::string& name)
-      : dir(std::filesystem::temp_directory_path() / ("alc-report-test-" + std::to_string(::getpid()) + "-" + name)) {
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-  }
-  ~Scratch() {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
-  Scratch(const Scratch&) = delete;
-  Scratch& operator=(const Scratch&) = delete;
-  std::filesystem::path dir;
+      : alc_test::Scratch(std::filesystem::temp_directory_path() /
+                          ("alc-report-test-" + std::to_string(::getpid()) + "-" + name)) {}
 };
 
 inline ShortHistory short_history(const std::filesystem::path& dir) {
@@ -74,6 +67,18 @@ inline ShortHistory short_history(const std::filesystem::path& dir) {
 
 inline void io_write(const std::filesystem::path& file, const std::string& text) {
   io::write_file_atomically(file, text);
+}
+
+// A small study of case A in DIR/study.sqlite (`alc study`, 2 x 2 sets: interval 2 and 8 h, ng-meas 6
+// and 12), its grid in DIR/grid.toml; `tag` names the CLI run's scratch files.
+inline std::filesystem::path small_study(const std::filesystem::path& dir, const std::string& tag) {
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\nng-interval = [10]\nng-meas = [6, 12]\n";
+  const auto db = dir / "study.sqlite";
+  const auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                       db.string() + "\"",
+                                   tag);
+  REQUIRE(r.exit_code == 0);
+  return db;
 }
 
 struct Browser {

@@ -110,9 +110,7 @@ TEST_CASE("TLS to the broker with the CA of its certificate works, and a wrong C
   Client c(broker.port, "observer", ClientOptions{"", "", certs.ca, false});
   pid_t pid = start_supervisor(dir);
   const ChildGuard guard{pid};
-  REQUIRE(c.until([&] { return c.state().value("online", false); }, 60));
-  c.publish("sample", sample_at(0.0));
-  REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }, 60));
+  first_sample(c, 60);
   ::kill(pid, SIGTERM);
   CHECK(wait_exit(pid) == 0);
 

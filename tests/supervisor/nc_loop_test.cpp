@@ -30,16 +30,58 @@ namespace {
 
 int sim_port() { return 20000 + static_cast<int>((::getpid() + 7919) % 20000); }
 
-// The supervisor's config: case A's signals, the NC on the simulator's linuxcncrsh.
-std::string nc_config(const scenarios::Scenario& s, int broker_port, int sim_port, const std::string& nc_extra) {
-  // A short calibration phase with fewer probes: a model, offsets and post-CP probes within hours.
-  // The guard off: these tests are about the NC path and want the model's offsets as they are (after
-  // a 2-h CP the guard's range of measured errors is still narrow and holds growing errors off).
+// A session of the test's own with the simulator's linuxcncrsh on `port`.
+nc::LinuxcncrshOptions rsh_options(int port) {
+  nc::LinuxcncrshOptions o;
+  o.port = port;
+  o.timeout_s = 20.0;
+  return o;
+}
+
+// DIR/sim, created.
+fs::path sim_dir(const fs::path& dir) {
+  fs::create_directories(dir / "sim");
+  return dir / "sim";
+}
+
+// The linuxcnc simulator of a test in DIR/sim, ready: linuxcncrsh listens, machine on, all joints homed.
+struct ReadySimulator : Simulator {
+  ReadySimulator(const fs::path& dir, int port, bool with_probe, double surface_mm)
+      : Simulator(sim_dir(dir), port, with_probe, surface_mm) {
+    wait_ready(rsh_options(port));
+  }
+};
+
+// What every test with the simulator sets up, in this order: the mosquitto library, the machine lock,
+// a fresh directory, the simulator on its own port (ready) and a broker.
+struct SimulatorSetup {
+  MosquittoLib lib;
+  const MachineLock lock;
+  const fs::path dir;
+  const int port = sim_port();
+  ReadySimulator sim;
+  Broker broker;
+  explicit SimulatorSetup(const std::string& name, bool with_probe = false, double surface_mm = -1000.0)
+      : dir(temp_dir(name)), sim(dir, port, with_probe, surface_mm), broker(dir, false) {}
+  // DIR/machine.toml and DIR/s.toml (nc_config) for case `s`.
+  void configure(const scenarios::Scenario& s, const std::string& machine, const std::string& nc_extra = "") const;
+};
+
+// Case A's config (case_config) with a short calibration phase and fewer probes: a model, offsets
+// and post-CP probes within hours. The guard off: these tests are about the NC path and want the
+// model's offsets as they are (after a 2-h CP the guard's range of measured errors is still narrow and
+// holds growing errors off).
+std::string short_cp_config(const scenarios::Scenario& s, int broker_port) {
   std::string text = case_config(s, broker_port);
   const std::string cp = "cp = 6.5\ninterval = 2\n";
   REQUIRE(text.find(cp) != std::string::npos);
   text.replace(text.find(cp), cp.size(), "cp = 2\ncp-interval = 15\ninterval = 1\nguard = false\n");
-  return text + "[nc]\nmachine = \"machine.toml\"\nsink = \"linuxcncrsh\"\nport = " +
+  return text;
+}
+
+// The supervisor's config: case A's signals, the NC on the simulator's linuxcncrsh.
+std::string nc_config(const scenarios::Scenario& s, int broker_port, int sim_port, const std::string& nc_extra) {
+  return short_cp_config(s, broker_port) + "[nc]\nmachine = \"machine.toml\"\nsink = \"linuxcncrsh\"\nport = " +
          std::to_string(sim_port) + "\ntimeout_s = 20\nretry_s = 1\n" + nc_extra;
 }
 
@@ -66,12 +108,15 @@ std::size_t events_of(const Client& c, const std::string& type) {
   return n;
 }
 
+void SimulatorSetup::configure(const scenarios::Scenario& s, const std::string& machine,
+                               const std::string& nc_extra) const {
+  write(dir / "machine.toml", machine);
+  write(dir / "s.toml", nc_config(s, broker.port, port, nc_extra));
+}
+
 // G54 as the NC holds it, read back by a session of the test's own (the supervisor is stopped).
 std::array<double, 6> g54_of(int port) {
-  nc::LinuxcncrshOptions o;
-  o.port = port;
-  o.timeout_s = 20.0;
-  nc::LinuxcncrshClient client(o);
+  nc::LinuxcncrshClient client(rsh_options(port));
   client.connect();
   return client.work_offset_values(1);
 }
@@ -96,25 +141,14 @@ struct Supervise {
 }  // namespace
 
 TEST_CASE("nc loop: offsets reach the LinuxCNC simulator through the gate, are read back as the compensation in force and continue after a restart", "[linuxcnc]") {
-  MosquittoLib lib;
-  const MachineLock lock;
-  const fs::path dir = temp_dir("nc-loop");
-  const int port = sim_port();
-  fs::create_directories(dir / "sim");
-  Simulator sim(dir / "sim", port);
-  sim.wait_ready([&] {
-    nc::LinuxcncrshOptions o;
-    o.port = port;
-    o.timeout_s = 20.0;
-    return o;
-  }());
-  Broker broker(dir, false);
+  const SimulatorSetup setup("nc-loop");
+  const fs::path& dir = setup.dir;
+  const int port = setup.port;
   const scenarios::Scenario s = case_a(6.0);
   // Y steps of at most 2 µm up to a max_offset of 5 µm that the predicted Y offset (about 10 µm)
   // exceeds: two steps are taken, the third is refused by the gate.
-  write(dir / "machine.toml", "[limits.max_offset]\ny_mm = 0.005\n[limits.max_step]\ny_mm = 0.002\n");
-  write(dir / "s.toml", nc_config(s, broker.port, port, ""));
-  Client c(broker.port, "twin-gateway");
+  setup.configure(s, "[limits.max_offset]\ny_mm = 0.005\n[limits.max_step]\ny_mm = 0.002\n");
+  Client c(setup.broker.port, "twin-gateway");
   Gateway g(s, c);
   auto sup = std::make_unique<Supervise>(dir);
   const std::size_t rows = s.samples() * 2 / 3;
@@ -189,23 +223,13 @@ TEST_CASE("nc loop: offsets reach the LinuxCNC simulator through the gate, are r
 }
 
 TEST_CASE("nc loop: the NC going down is an event and a history row and the supervisor keeps running", "[linuxcnc]") {
-  MosquittoLib lib;
-  const MachineLock lock;
-  const fs::path dir = temp_dir("nc-down");
-  const int port = sim_port();
-  fs::create_directories(dir / "sim");
-  Simulator sim(dir / "sim", port);
-  nc::LinuxcncrshOptions rsh;
-  rsh.port = port;
-  rsh.timeout_s = 20.0;
-  sim.wait_ready(rsh);
-  Broker broker(dir, false);
+  SimulatorSetup setup("nc-down");
+  Simulator& sim = setup.sim;
   const scenarios::Scenario s = case_a(3.0);
-  write(dir / "machine.toml", "");
-  write(dir / "s.toml", nc_config(s, broker.port, port, ""));
-  Client c(broker.port, "twin-gateway");
+  setup.configure(s, "");
+  Client c(setup.broker.port, "twin-gateway");
   Gateway g(s, c);
-  Supervise sup(dir);
+  Supervise sup(setup.dir);
   g.play(60);  // an hour of the calibration phase, the NC up
   CHECK(events_of(c, "NcDeliveryFailed") == 0);
   // The NC goes down before the end of the calibration phase (2 h), which sends a new probe interval
@@ -222,7 +246,7 @@ TEST_CASE("nc loop: the NC going down is an event and a history row and the supe
   CHECK(held.x_mm == 0.0);
   CHECK(held.z_mm == 0.0);
   CHECK(sup.stop() == 0);
-  const storage::HistoryReader h(dir / "h.sqlite");
+  const storage::HistoryReader h(setup.dir / "h.sqlite");
   const auto run = h.runs().back().run_id;
   std::size_t failed = 0, offsets = 0;
   for (const auto& r : h.nc_commands(run)) {
@@ -237,18 +261,12 @@ TEST_CASE("nc loop: the NC going down is an event and a history row and the supe
 }
 
 TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the surface shift", "[linuxcnc]") {
-  MosquittoLib lib;
-  const MachineLock lock;
-  const fs::path dir = temp_dir("nc-probe");
-  const int port = sim_port();
   constexpr double kNominalZ = -5.0;  // [mm] the surface without error, work coordinates (G54 base 0)
-  fs::create_directories(dir / "sim");
-  Simulator sim(dir / "sim", port, true, kNominalZ);
-  nc::LinuxcncrshOptions rsh;
-  rsh.port = port;
-  rsh.timeout_s = 20.0;
-  sim.wait_ready(rsh);
-  Broker broker(dir, false);
+  SimulatorSetup setup("nc-probe", true, kNominalZ);
+  const fs::path& dir = setup.dir;
+  const int port = setup.port;
+  Simulator& sim = setup.sim;
+  const Broker& broker = setup.broker;
   // Case A to the first post-CP probe (CP 2 h, then every hour), and its twin's true E_Z0T.
   const scenarios::SimulatedCase twin_case = scenarios::simulate_case("A");
   const scenarios::Scenario s = case_a(3.1);
@@ -409,9 +427,7 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   const fs::path dir = temp_dir("nc-spool");
   fs::create_directories(dir / "spool");
   const scenarios::Scenario s = case_a(5.0);
-  std::string text = case_config(s, 1);
-  text.replace(text.find("cp = 6.5\ninterval = 2\n"), 22, "cp = 2\ncp-interval = 15\ninterval = 1\nguard = false\n");
-  write(dir / "s.toml", text + "[nc]\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
+  write(dir / "s.toml", short_cp_config(s, 1) + "[nc]\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
   const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
   RecordingBus bus;
   std::int64_t answered = 0;

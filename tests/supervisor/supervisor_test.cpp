@@ -183,15 +183,9 @@ TEST_CASE("case A through the broker equals the replay with every sample stored 
 }
 
 TEST_CASE("bad messages are rejected with the reason and stale sensors hold the offsets and a missing probe times out and SIGTERM stops cleanly") {
-  MosquittoLib lib;
-  const fs::path dir = temp_dir("faults");
-  Broker broker(dir, false);
-  write(dir / "s.toml", small_config(broker.port));
-  Client c(broker.port, "observer");
-  const pid_t pid = start_supervisor(dir);
-  REQUIRE(c.until([&] { return c.state().value("online", false); }));
-  c.publish("sample", sample_at(0.0));
-  REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }));
+  SmallSupervisor sup("faults");
+  Client& c = sup.c;
+  const pid_t pid = sup.pid;
   // The first sample reaches the first due time (CP starts with a probe): request 1, left unanswered.
   CHECK(c.state()["outstanding_probe"] == 1);
 
@@ -247,7 +241,7 @@ TEST_CASE("bad messages are rejected with the reason and stale sensors hold the 
   ::kill(pid, SIGTERM);
   CHECK(wait_exit(pid) == 0);
   REQUIRE(c.until([&] { return !c.state().value("online", true); }));
-  const storage::HistoryReader r(dir / "h.sqlite");
+  const storage::HistoryReader r(sup.dir / "h.sqlite");
   const auto run = r.runs().back();
   CHECK(run.status == storage::RunStatus::Stopped);
   // t = 720 s timed probe 2 out: t = 120 s was processed and asked for probe 3; the others wait in the
@@ -264,9 +258,7 @@ TEST_CASE("username and password file on a broker with an ACL and wrong credenti
   write(dir / "s.toml", small_config(broker.port, "username = \"alc\"\npassword_file = \"pw\"\n"));
   Client c(broker.port, "observer", "twin", "twinpw");
   pid_t pid = start_supervisor(dir);
-  REQUIRE(c.until([&] { return c.state().value("online", false); }));
-  c.publish("sample", sample_at(0.0));
-  REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }));
+  first_sample(c);
   ::kill(pid, SIGTERM);
   CHECK(wait_exit(pid) == 0);
 

@@ -353,6 +353,33 @@ inline std::string sample_at(double t) {
   return Json{{"time_s", t}, {"inputs", {{"T_ENV", 20.0 + t * 1e-4}, {"T_WS", 21.0}}}}.dump();
 }
 
+// Waits until the supervisor is online (its retained state) and has received its first sample, t = 0.
+inline void first_sample(Client& c, double seconds = 120.0) {
+  REQUIRE(c.until([&] { return c.state().value("online", false); }, seconds));
+  c.publish("sample", sample_at(0.0));
+  REQUIRE(c.until([&] { return c.state().value("received", 0) == 1; }, seconds));
+}
+
+// `alc supervise` with small_config on an anonymous broker of the test's own, watched by the client
+// "observer": started, online, and its first sample received (first_sample). A supervisor still
+// running when the test ends (a failed REQUIRE) is killed.
+struct SmallSupervisor {
+  MosquittoLib lib;
+  fs::path dir;
+  Broker broker;
+  Client c;
+  pid_t pid = -1;
+  ChildGuard guard{pid};
+  explicit SmallSupervisor(const std::string& name)
+      : dir(temp_dir(name)), broker(dir, false), c(broker.port, "observer") {
+    write(dir / "s.toml", small_config(broker.port));
+    pid = start_supervisor(dir);
+    first_sample(c);
+  }
+  SmallSupervisor(const SmallSupervisor&) = delete;
+  SmallSupervisor& operator=(const SmallSupervisor&) = delete;
+};
+
 inline std::string read_text(const fs::path& p) {
   std::ifstream in(p);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
