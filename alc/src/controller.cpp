@@ -241,6 +241,19 @@ std::pair<double, double> Controller::guard_range(Eigen::Index i) const {
   return {lo - margin, hi + margin};
 }
 
+ControllerEvent Controller::guard_event(double time_s, Eigen::Index output, double value, double limit,
+                                        const std::string& why) const {
+  ControllerEvent e;
+  e.type = ControllerEvent::Type::Guard;
+  e.time_s = time_s;
+  e.from = e.to = state_.phase;
+  e.output = output_names_[static_cast<std::size_t>(output)];
+  e.value = value;
+  e.limit = limit;
+  e.reason = "guard: " + why;
+  return e;
+}
+
 Eigen::VectorXd Controller::compensated() const {
   Eigen::VectorXd c = state_.prediction;
   if (!params_.guard || !state_.has_model) return c;
@@ -256,22 +269,13 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const bool off = !(p >= lo && p <= hi);
       if (off == (state_.guard_off_range(i) != 0.0)) continue;
       state_.guard_off_range(i) = off ? 1.0 : 0.0;
-      ControllerEvent e;
-      e.type = ControllerEvent::Type::Guard;
-      e.time_s = time_s;
-      e.from = e.to = state_.phase;
-      e.output = output_names_[static_cast<std::size_t>(i)];
-      e.value = p;
-      e.limit = p > hi ? hi : lo;
       std::ostringstream why;
-      why << "guard: ";
       if (off)
         why << "compensation off: the prediction " << p << " left the range of the measured errors widened to [" << lo
             << ", " << hi << "]";
       else
         why << "compensation on again: the prediction " << p << " is back within [" << lo << ", " << hi << "]";
-      e.reason = why.str();
-      out.events.push_back(std::move(e));
+      out.events.push_back(guard_event(time_s, i, p, p > hi ? hi : lo, why.str()));
     }
   return compensated();
 }
@@ -306,19 +310,11 @@ void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const
       const double energy = state_.guard_error(i) - 2.0 * g * state_.guard_cross(i) + g * g * state_.guard_power(i);
       return std::sqrt(std::max(0.0, energy) / weights);
     };
-    ControllerEvent e;
-    e.type = ControllerEvent::Type::Guard;
-    e.time_s = time_s;
-    e.from = e.to = state_.phase;
-    e.output = output_names_[static_cast<std::size_t>(i)];
-    e.value = gain;
-    e.limit = state_.guard_gain(i);
     std::ostringstream why;
-    why << "guard: compensation gain " << state_.guard_gain(i) << " -> " << gain << ": on the recent probes the error RMS is "
+    why << "compensation gain " << state_.guard_gain(i) << " -> " << gain << ": on the recent probes the error RMS is "
         << rms(0.0) << " uncompensated, " << rms(1.0) << " with the prediction, " << rms(gain) << " with gain " << gain;
-    e.reason = why.str();
+    out.events.push_back(guard_event(time_s, i, gain, state_.guard_gain(i), why.str()));
     state_.guard_gain(i) = gain;
-    out.events.push_back(std::move(e));
   }
 }
 

@@ -677,7 +677,11 @@ TEST_CASE("controller: the guard backs compensation off where the model does wor
       REQUIRE_FALSE(guards.empty());
       // Each change of the gain is an event with the recent RMS without and with the prediction.
       for (const auto& e : guards) {
-        CHECK_THAT(e.reason, Catch::Contains("compensation gain") && Catch::Contains("uncompensated"));
+        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation gain") && Catch::Contains("uncompensated"));
+        CHECK((e.output == "E_X0C" || e.output == "E_A0C"));
+        CHECK(e.from == e.to);
+        CHECK(e.from != Phase::Calibration);  // evidence after CP only
+        CHECK(e.time_s > 2 * kHour);
         CHECK(e.value < e.limit);  // only down here: the model never gets better
         CHECK(e.value >= 0.0);
       }
@@ -721,7 +725,10 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     const ControllerOutput out = d.controller.on_sample(d.t, hot);
     for (const auto& e : out.events)
       if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
-        CHECK_THAT(e.reason, Catch::Contains("left the range"));
+        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation off") && Catch::Contains("left the range"));
+        CHECK(e.time_s == d.t);
+        CHECK(e.from == d.controller.phase());
+        CHECK(e.to == e.from);
         CHECK(e.value > e.limit);
         CHECK(e.limit > high);
         off = true;
@@ -740,7 +747,8 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
     for (const auto& e : out.events)
       if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
-        CHECK_THAT(e.reason, Catch::Contains("on again"));
+        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation on again"));
+        CHECK(e.limit <= e.value);  // back within the range: above its lower bound
         on = true;
         CHECK(out.prediction(0) == d.controller.state().prediction(0) * d.controller.state().guard_gain(0));
       }

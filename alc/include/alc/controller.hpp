@@ -224,6 +224,9 @@ class Controller {
   Eigen::VectorXd compensated(double time_s, ControllerOutput& out);
   // Widens the range of the measured thermal errors by a probe's (NaN: not measured).
   void widen_range(const Eigen::VectorXd& errors);
+  // A Guard event at `time_s` for output i (value, limit as ControllerEvent documents them; the reason
+  // "guard: " + why).
+  ControllerEvent guard_event(double time_s, Eigen::Index output, double value, double limit, const std::string& why) const;
   // [unit] the interval the guard lets compensation take for output i (the measured errors widened).
   std::pair<double, double> guard_range(Eigen::Index i) const;
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
