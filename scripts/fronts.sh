@@ -19,7 +19,7 @@ mkdir -p "$out/recordings"
 for s in $seeds; do
   for c in $cases; do
     f="$out/recordings/$c seed $s.csv"
-    [ -s "$f" ] || "$alc" simulate --case "$c" --seed "$s" --out "$f"
+    "$alc" simulate --case "$c" --seed "$s" --out "$f"  # always anew: the twin may have changed
   done
 done
 for g in paper adaptive; do
