@@ -1,17 +1,33 @@
 #!/usr/bin/env python3
 """Compares the Pareto fronts (mean linear P99 against Pd) of two study CSV files case by case.
 
-usage: compare_fronts.py A.csv B.csv [--label-a paper] [--label-b adaptive] [--svg FILE]
+usage: compare_fronts.py A.csv B.csv [--label-a paper] [--label-b adaptive] [--svg PREFIX] [--fronts]
 
-Prints, per case, each front (P99 [µm], Pd [%], set) and how many points of one front a point of
-the other dominates (lower or equal P99 and higher or equal Pd, one of them strictly), and the area
-each front dominates within the box P99 <= 5 µm, Pd >= 95 %. Standard library only.
+A front is the sets no other set of the same file beats in both (lower or equal P99, higher or equal
+Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts/fronts.sh) it prints
+- how many points of one front a point of the other dominates (lower or equal P99 and higher or
+  equal Pd, one of them strictly);
+- the area each front dominates in the box Pd from the lowest Pd of either front to 100 %, P99 from
+  0 to 2.5 x the lowest P99 of either front (the part the figures show; larger is better; the same
+  box for both fronts);
+- along Pd: the best P99 each front reaches at a Pd of at least p, for p over the Pd range of the two
+  fronts in steps of 0.01 %; the Pd ranges where B's P99 is lower (B wins) and where A's is (A wins;
+  a front that does not reach p has no P99 there and loses). These are where the fronts cross.
+With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
+Standard library only.
 """
 import argparse
 import csv
+import math
+import re
 from collections import defaultdict
 
-P99_LIMIT, PD_FLOOR = 5.0, 95.0
+
+def case_key(name):
+    """'A' -> ('A', 'own'); '.../A seed 2.csv' -> ('A', 'seed 2')."""
+    base = re.sub(r"\.csv$", "", name.split("/")[-1])
+    m = re.match(r"^(.*) seed (\d+)$", base)
+    return (m.group(1), f"seed {m.group(2)}") if m else (base, "own")
 
 
 def rows(path):
@@ -20,12 +36,13 @@ def rows(path):
         for r in csv.DictReader(f):
             if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
                 continue
-            by_case[r["case"]].append((float(r["P99_linear"]), float(r["Pd"]), r["set"]))
+            k = case_key(r["case"])
+            by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), r["set"]))
     return by_case
 
 
 def front(points):
-    best, out = -1.0, []
+    best, out = -math.inf, []
     for p99, pd, s in sorted(points, key=lambda x: (x[0], -x[1])):
         if pd > best:
             out.append((p99, pd, s))
@@ -37,15 +54,45 @@ def dominates(a, b):
     return a[0] <= b[0] and a[1] >= b[1] and (a[0] < b[0] or a[1] > b[1])
 
 
-def area(fr):
-    """Area of the box [0, P99_LIMIT] x [PD_FLOOR, 100] that the front dominates."""
-    total, prev_pd = 0.0, PD_FLOOR
+def area(fr, pd_floor, p99_limit):
+    """Area of the box [0, p99_limit] x [pd_floor, 100] that the front dominates."""
+    total, prev_pd = 0.0, pd_floor
     for p99, pd, _ in fr:  # by P99 ascending, Pd ascending
-        if p99 >= P99_LIMIT or pd <= prev_pd:
+        if p99 >= p99_limit or pd <= prev_pd:
             continue
-        total += (P99_LIMIT - p99) * (min(pd, 100.0) - prev_pd)
+        total += (p99_limit - p99) * (min(pd, 100.0) - prev_pd)
         prev_pd = pd
     return total
+
+
+def best_at(fr, pd):
+    """The lowest P99 of the front at a Pd of at least pd (inf: the front does not reach pd)."""
+    return min((p for p, d, _ in fr if d >= pd - 1e-9), default=math.inf)
+
+
+def crossings(fa, fb):
+    """Pd ranges (lo, hi, winner) along the union of both fronts' Pd range, winner 'a', 'b' or '='."""
+    pds = [d for _, d, _ in fa + fb]
+    if not pds:
+        return []
+    lo, hi = min(pds), max(pds)
+    out, n = [], int(round((hi - lo) / 0.01))
+    for k in range(n + 1):
+        pd = lo + k * 0.01
+        a, b = best_at(fa, pd), best_at(fb, pd)
+        w = "=" if abs(a - b) < 0.005 or (math.isinf(a) and math.isinf(b)) else ("b" if b < a else "a")
+        if out and out[-1][2] == w:
+            out[-1][1] = pd
+        else:
+            out.append([pd, pd, w])
+    return out
+
+
+def describe(ranges, who):
+    spans = [(lo, hi) for lo, hi, w in ranges if w == who]
+    width = sum(hi - lo + 0.01 for lo, hi in spans)
+    text = ", ".join(f"{lo:.2f}" if hi - lo < 0.005 else f"{lo:.2f}–{hi:.2f}" for lo, hi in spans)
+    return width, text or "—"
 
 
 def main():
@@ -54,56 +101,89 @@ def main():
     ap.add_argument("b")
     ap.add_argument("--label-a", default="A")
     ap.add_argument("--label-b", default="B")
-    ap.add_argument("--svg", help="also draw both fronts per case into this SVG file")
-    ap.add_argument("--title", default="")
+    ap.add_argument("--svg", help="also draw both fronts per case, one SVG per seed: PREFIX-own.svg, PREFIX-seed-S.svg")
+    ap.add_argument("--fronts", action="store_true", help="also list the fronts' points")
     args = ap.parse_args()
     ra, rb = rows(args.a), rows(args.b)
-    print(f"| case | front {args.label_a} (P99 µm / Pd %) | front {args.label_b} (P99 µm / Pd %) | "
-          f"{args.label_a} points dominated by {args.label_b} | {args.label_b} points dominated by {args.label_a} | "
-          f"area {args.label_a} | area {args.label_b} |")
+    la, lb = args.label_a, args.label_b
+    order = lambda k: (k[1] != "own", k[1], ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"].index(k[0])
+                       if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
+    keys = sorted(set(ra) | set(rb), key=order)
+    print(f"| recording | {la} points dominated by {lb} | {lb} points dominated by {la} | area {la} | area {lb} | "
+          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    for case in sorted(set(ra) | set(rb)):
-        fa, fb = front(ra.get(case, [])), front(rb.get(case, []))
+    wins = defaultdict(float)
+    for k in keys:
+        fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
         da = sum(any(dominates(q, p) for q in fb) for p in fa)
         db = sum(any(dominates(q, p) for q in fa) for p in fb)
-        show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr if p < 8)
-        print(f"| {case} | {show(fa)} | {show(fb)} | {da} of {len(fa)} | {db} of {len(fb)} | "
-              f"{area(fa):.2f} | {area(fb):.2f} |")
+        floor = min([d for _, d, _ in fa + fb], default=95.0)
+        limit = 2.5 * min([p for p, _, _ in fa + fb], default=2.0)
+        ranges = crossings(fa, fb)
+        wb, tb = describe(ranges, "b")
+        wa, ta = describe(ranges, "a")
+        wins["a"] += wa
+        wins["b"] += wb
+        wins["="] += describe(ranges, "=")[0]
+        name = k[0] if k[1] == "own" else f"{k[0]} {k[1]}"
+        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
+              f"{area(fb, floor, limit):.2f} | {tb} | {ta} |")
+    total = sum(wins.values())
+    if total > 0:
+        print(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
+              f"{la} lower on {100 * wins['a'] / total:.1f} %, equal (within 0.005 µm) on "
+              f"{100 * wins['='] / total:.1f} % of the Pd range")
+    if args.fronts:
+        print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")
+        show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr)
+        for k in keys:
+            name = k[0] if k[1] == "own" else f"{k[0]} {k[1]}"
+            print(f"| {name} | {show(front(ra.get(k, [])))} | {show(front(rb.get(k, [])))} |")
     if args.svg:
-        svg(args.svg, args.title, ra, rb, args.label_a, args.label_b)
+        for seed in sorted({k[1] for k in keys}, key=lambda s: (s != "own", s)):
+            ks = [k for k in keys if k[1] == seed]
+            path = f"{args.svg}-{seed.replace(' ', '-')}.svg"
+            svg(path, f"Pareto fronts, mean linear P99 against Pd, {'own seeds' if seed == 'own' else seed}",
+                ks, ra, rb, la, lb)
 
 
-def svg(path, title, ra, rb, la, lb):
-    cases = sorted(set(ra) | set(rb))
-    w, h, cols = 420, 320, 2
-    rows_n = (len(cases) + cols - 1) // cols
+def svg(path, title, keys, ra, rb, la, lb):
+    w, h, cols = 330, 270, 5
+    rows_n = (len(keys) + cols - 1) // cols
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w * cols}" height="{h * rows_n + 40}" '
-           f'font-family="sans-serif" font-size="12">',
-           f'<text x="10" y="22" font-size="15">{title}</text>']
+           f'font-family="sans-serif" font-size="11">',
+           f'<rect width="100%" height="100%" fill="white"/>',
+           f'<text x="10" y="22" font-size="15">{title} ({la}: blue, {lb}: red)</text>']
     colours = {la: "#1f77b4", lb: "#d62728"}
-    for k, case in enumerate(cases):
-        x0, y0 = (k % cols) * w + 60, (k // cols) * h + 60
-        pw, ph = w - 90, h - 90
-        pd_lo, pd_hi, p_lo, p_hi = 95.0, 99.0, 1.5, 5.5
+    for n, k in enumerate(keys):
+        x0, y0 = (n % cols) * w + 50, (n // cols) * h + 60
+        pw, ph = w - 75, h - 90
+        fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
+        pts = fa + fb
+        if not pts:
+            continue
+        pd_lo, pd_hi = math.floor(min(d for _, d, _ in pts)), math.ceil(max(d for _, d, _ in pts))
+        best = min(p for p, _, _ in pts)
+        p_lo, p_hi = math.floor(best), math.ceil(2.5 * best)  # the fronts' interesting part
         X = lambda pd: x0 + (pd - pd_lo) / (pd_hi - pd_lo) * pw
         Y = lambda p: y0 + ph - (p - p_lo) / (p_hi - p_lo) * ph
         out.append(f'<rect x="{x0}" y="{y0}" width="{pw}" height="{ph}" fill="none" stroke="#888"/>')
-        out.append(f'<text x="{x0 + pw - 60}" y="{y0 - 6}" font-weight="bold">case {case}</text>')
-        for v in (95, 96, 97, 98, 99):
-            out.append(f'<text x="{X(v) - 8:.1f}" y="{y0 + ph + 16}">{v}</text>')
-        for v in (2, 3, 4, 5):
-            out.append(f'<text x="{x0 - 20}" y="{Y(v) + 4:.1f}">{v}</text>')
-        out.append(f'<text x="{x0 + pw / 2 - 20}" y="{y0 + ph + 32}">Pd [%]</text>')
-        out.append(f'<text x="{x0 - 45}" y="{y0 - 6}">P99 [µm]</text>')
-        for label, data in ((la, ra), (lb, rb)):
-            fr = [(p, d) for p, d, _ in front(data.get(case, [])) if pd_lo <= d <= pd_hi and p_lo <= p <= p_hi]
-            if fr:
-                pts = " ".join(f"{X(d):.1f},{Y(p):.1f}" for p, d in fr)
-                out.append(f'<polyline points="{pts}" fill="none" stroke="{colours[label]}" stroke-width="2"/>')
-                for p, d in fr:
-                    out.append(f'<circle cx="{X(d):.1f}" cy="{Y(p):.1f}" r="3" fill="{colours[label]}"/>')
-        for i, label in enumerate((la, lb)):
-            out.append(f'<text x="{x0 + 8}" y="{y0 + 16 + 14 * i}" fill="{colours[label]}">{label}</text>')
+        out.append(f'<text x="{x0 + pw - 40}" y="{y0 - 6}" font-weight="bold">{k[0]}</text>')
+        step = 1 if pd_hi - pd_lo <= 6 else 2
+        for v in range(pd_lo, pd_hi + 1, step):
+            out.append(f'<text x="{X(v) - 7:.1f}" y="{y0 + ph + 14}">{v}</text>')
+        pstep = max(1, (p_hi - p_lo) // 5)
+        for v in range(p_lo, p_hi + 1, pstep):
+            out.append(f'<text x="{x0 - 18}" y="{Y(v) + 4:.1f}">{v}</text>')
+        out.append(f'<text x="{x0 + pw / 2 - 15}" y="{y0 + ph + 28}">Pd [%]</text>')
+        out.append(f'<text x="{x0 - 40}" y="{y0 - 6}">P99 [µm]</text>')
+        for label, fr in ((la, fa), (lb, fb)):
+            inside = [(p, d) for p, d, _ in fr if p <= p_hi]
+            if inside:
+                line = " ".join(f"{X(d):.1f},{Y(p):.1f}" for p, d in inside)
+                out.append(f'<polyline points="{line}" fill="none" stroke="{colours[label]}" stroke-width="1.5"/>')
+                for p, d in inside:
+                    out.append(f'<circle cx="{X(d):.1f}" cy="{Y(p):.1f}" r="2.5" fill="{colours[label]}"/>')
     out.append("</svg>")
     with open(path, "w") as f:
         f.write("\n".join(out) + "\n")

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Regenerates the Pareto fronts of docs/adaptive.md ("Judged on the Pareto front") in one command:
+# the paper-schedule and adaptive-schedule studies (docs/grids-*.toml) on every case (A-D, S16,
+# H1-H5) at their own seeds and at the seeds in SEEDS (default "2 3", recordings made with
+# `alc simulate --case X --seed S`), then the comparison table and one SVG per seed.
+#
+# usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2 in the environment)
+# Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg
+# (default OUT_DIR: build/fronts); prints the table and the run time.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+alc=$(realpath "${ALC:-$here/build/rel/cli/alc}")
+out=${1:-$here/build/fronts}
+seeds=${SEEDS:-2 3}
+jobs=${JOBS:-2}
+cases="A B C D S16 H1 H2 H3 H4 H5"
+start=$(date +%s)
+mkdir -p "$out/recordings"
+for s in $seeds; do
+  for c in $cases; do
+    f="$out/recordings/$c seed $s.csv"
+    "$alc" simulate --case "$c" --seed "$s" --out "$f"  # always anew: the twin may have changed
+  done
+done
+for g in paper adaptive; do
+  grid="$here/docs/grids-$g-schedule.toml"
+  rm -f "$out/$g.csv"
+  part=0
+  # The cases at their own seeds, then each other seed's recordings (the case column names the file).
+  for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
+    part=$((part + 1))
+    if [[ $what == seed:* ]]; then
+      s=${what#seed:}
+      files=()
+      for c in $cases; do files+=("$out/recordings/$c seed $s.csv"); done
+      (cd "$out/recordings" && "$alc" study --grid "$grid" --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" \
+        "${files[@]##*/}" > /dev/null)
+    else
+      # shellcheck disable=SC2086
+      "$alc" study --grid "$grid" $what --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
+    fi
+    if [ -s "$out/$g.csv" ]; then tail -n +2 "$out/$g.$part.csv" >> "$out/$g.csv"; else cp "$out/$g.$part.csv" "$out/$g.csv"; fi
+    rm -f "$out/$g.$part.csv"
+  done
+done
+python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
+  --svg "$out/fronts" | tee "$out/fronts.md"
+echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own, $seeds; jobs $jobs); SVGs: $out/fronts-*.svg"
