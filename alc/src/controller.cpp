@@ -51,6 +51,12 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   if (s.drift_rate.size() != n) s.drift_rate = Eigen::VectorXd::Constant(n, nan);
   if (s.noise_var.size() != n) s.noise_var = Eigen::VectorXd::Constant(n, nan);
+  if (s.kappa.size() != n) s.kappa = Eigen::VectorXd::Zero(n);
+  if (s.schedule_sums.rows() != n || s.schedule_sums.cols() != 5) s.schedule_sums = Eigen::MatrixXd::Zero(n, 5);
+  // A state saved before the change of the prediction counted: it counts from here, the time from the last probe.
+  if (s.schedule_prediction.size() != n)
+    s.schedule_prediction = s.prediction.size() == n ? s.prediction : Eigen::VectorXd::Zero(n);
+  if (!std::isfinite(s.schedule_since_s) && s.phase != Phase::Calibration) s.schedule_since_s = s.last_probe_s;
   if (s.guard_cross.size() != n) s.guard_cross = Eigen::VectorXd::Zero(n);
   if (s.guard_power.size() != n) s.guard_power = Eigen::VectorXd::Zero(n);
   if (s.guard_error.size() != n) s.guard_error = Eigen::VectorXd::Zero(n);
@@ -202,7 +208,11 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
   c.last_update_s = state_.last_update_s;
   c.ng_probes = state_.ng_probes;
   c.drift_rate = state_.drift_rate;
+  c.kappa = state_.kappa;
   c.noise_var = state_.noise_var;
+  c.since_s = state_.schedule_since_s;
+  if (state_.has_model && state_.schedule_prediction.size() == state_.prediction.size())
+    c.prediction_change = state_.prediction - state_.schedule_prediction;
   c.acl.resize(static_cast<Eigen::Index>(output_names_.size()));
   for (std::size_t i = 0; i < output_names_.size(); ++i) c.acl(static_cast<Eigen::Index>(i)) = acl_of(i);
   c.output_names = &output_names_;
@@ -210,6 +220,8 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
 }
 
 void Controller::schedule_next(double time_s, ControllerOutput& out) {
+  state_.schedule_since_s = time_s;
+  state_.schedule_prediction = state_.prediction;
   const probing::ScheduleContext ctx = schedule_context(time_s);
   state_.next_probe_due_s = schedule_->next_due(ctx);
   std::string why = schedule_->explain(ctx);
@@ -222,6 +234,59 @@ void Controller::schedule_next(double time_s, ControllerOutput& out) {
   e.reason = std::move(why);
   state_.current_interval_s = e.interval_s;
   out.events.push_back(std::move(e));
+}
+
+void Controller::check_due(double time_s, ControllerOutput& out) {
+  const probing::ScheduleContext ctx = schedule_context(time_s);
+  if (schedule_->next_due(ctx) > time_s) return;
+  // Due: the probe is taken at the first chance from here (one event, the time no longer moves).
+  state_.next_probe_due_s = time_s;
+  ControllerEvent e;
+  e.type = ControllerEvent::Type::ProbeIntervalChange;
+  e.time_s = time_s;
+  e.from = e.to = state_.phase;
+  e.interval_s = time_s - state_.schedule_since_s;
+  e.reason = schedule_->explain(ctx);
+  state_.current_interval_s = e.interval_s;
+  out.events.push_back(std::move(e));
+}
+
+// The schedule's evidence (docs/adaptive.md): per output, the growth rate of the residual variance after
+// a decision, y = max(0, r² - noise) / dt, regressed on the squared prediction change rate x = dy² / dt
+// as y = drift + kappa x (both >= 0), over the Post-CP probes with weights decaying by kScheduleDecay per
+// probe. Seeded at CP end with one observation x = 0, y = the drift of the paper's interval.
+constexpr double kScheduleDecay = 0.8;
+
+void Controller::weigh_schedule(double time_s, const Eigen::VectorXd& residuals) {
+  const double dt = time_s - state_.schedule_since_s;
+  if (state_.phase != Phase::PostCalibration || !(dt > 0.0) || !std::isfinite(dt)) return;
+  for (Eigen::Index i = 0; i < residuals.size(); ++i) {
+    const double r = residuals(i);
+    if (std::isnan(r)) continue;
+    const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
+    const double dy = state_.prediction(i) - state_.schedule_prediction(i);
+    const double x = dy * dy / dt;
+    const double y = std::max(0.0, r * r - noise) / dt;
+    auto sums = state_.schedule_sums.row(i);
+    sums *= kScheduleDecay;
+    sums += Eigen::RowVectorXd((Eigen::RowVectorXd(5) << 1.0, x, x * x, y, x * y).finished());
+    const double w = sums(0), sx = sums(1), sxx = sums(2), sy = sums(3), sxy = sums(4);
+    double drift = sy / w, kappa = 0.0;
+    const double det = w * sxx - sx * sx;
+    if (det > 1e-12 * w * sxx) {
+      kappa = (w * sxy - sx * sy) / det;
+      drift = (sy - kappa * sx) / w;
+      if (kappa < 0.0) {
+        kappa = 0.0;
+        drift = sy / w;
+      } else if (drift < 0.0) {
+        drift = 0.0;
+        kappa = sxy / sxx;
+      }
+    }
+    state_.drift_rate(i) = drift;
+    state_.kappa(i) = kappa;
+  }
 }
 
 // The guard (docs/adaptive.md). Its sums decay by this factor per probe after CP (about the last 20
@@ -282,18 +347,11 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
 
 void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                              ControllerOutput& out) {
-  const double dt = time_s - state_.last_probe_s;
   ++state_.guard_probes;
   const double weights = (1.0 - std::pow(kGuardDecay, state_.guard_probes)) / (1.0 - kGuardDecay);
   for (Eigen::Index i = 0; i < residuals.size(); ++i) {
     const double r = residuals(i);
     if (std::isnan(r) || std::isnan(errors(i))) continue;
-    if (state_.phase == Phase::PostCalibration && dt > 0.0 && std::isfinite(dt)) {
-      // Variance growth since the probe before: what the residual adds beyond the fit's noise.
-      const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
-      const double rate = std::max(0.0, r * r - noise) / dt;
-      state_.drift_rate(i) = std::isfinite(state_.drift_rate(i)) ? 0.5 * state_.drift_rate(i) + 0.5 * rate : rate;
-    }
     // The guard compares, on the recent probes, the error left with the prediction scaled by k with the
     // error without compensation: sum (u - k p)^2 is smallest in [0, 1] at k = sum(u p) / sum(p^2)
     // clamped, and never above sum u^2 (k = 0), so the gain never makes the recent probes worse.
@@ -485,6 +543,8 @@ void Controller::advance(double time_s, ControllerOutput& out) {
         const double noise = std::isfinite(state_.noise_var(i)) ? state_.noise_var(i) : 0.0;
         const double budget = std::pow(params_.uncertainty_fraction * acl_of(static_cast<std::size_t>(i)), 2) - noise;
         if (budget > 0.0) state_.drift_rate(i) = budget / params_.post_cp_interval_s;
+        state_.schedule_sums.row(i).setZero();
+        if (budget > 0.0) state_.schedule_sums.row(i) << 1.0, 0.0, 0.0, state_.drift_rate(i), 0.0;
       }
     enter(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified",
           "Post-CP interval");
@@ -536,6 +596,8 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   h.inputs.row(row) = inputs.transpose();
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
+  if (state_.phase == Phase::PostCalibration && schedule_->checks_each_sample() && time_s < state_.next_probe_due_s)
+    check_due(time_s, out);
   trim();
   out.prediction = compensated(time_s, out);
   out.next_probe_due_s = state_.next_probe_due_s;
@@ -587,6 +649,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   const Eigen::VectorXd residuals = this->residuals(record.errors);
   // Every probe after CP is evidence for the guard, the NG probes too (a model that mispredicts breaches).
   if (state_.phase != Phase::Calibration && state_.has_model) weigh_probe(t, record.errors, residuals, out);
+  if (state_.has_model) weigh_schedule(t, residuals);
   state_.last_probe_s = t;
   for (Eigen::Index i = 0; i < n; ++i) {
     const double residual = residuals(i);

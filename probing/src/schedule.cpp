@@ -48,35 +48,49 @@ NgStep PaperSchedule::after_ng_probe(const ScheduleContext& ctx, bool breaching)
   return breaching ? NgStep::UpdateAndContinue : NgStep::Leave;
 }
 
+namespace {
+
+double entry(const Eigen::VectorXd& v, Eigen::Index i) { return i < v.size() && std::isfinite(v(i)) ? v(i) : 0.0; }
+double since(const ScheduleContext& ctx) { return std::isfinite(ctx.since_s) ? ctx.since_s : ctx.now_s; }
+
+}  // namespace
+
 std::pair<double, int> AdaptiveSchedule::post_cp_interval(const ScheduleContext& ctx) const {
   const double paper = interval(Phase::PostCalibration);
   if (!std::isfinite(paper)) return {paper, -1};  // no probes after CP: none, adaptive or not
   double best = kNever;
   int which = -1;
+  bool evidence = false;
   for (Eigen::Index i = 0; i < ctx.drift_rate.size() && i < ctx.acl.size(); ++i) {
     const double rate = ctx.drift_rate(i);
-    if (!(rate > 0.0) || !std::isfinite(rate)) continue;
-    const double noise = i < ctx.noise_var.size() && std::isfinite(ctx.noise_var(i)) ? ctx.noise_var(i) : 0.0;
-    const double budget = std::pow(adaptive_.fraction * ctx.acl(i), 2) - noise;
-    const double dt = budget > 0.0 ? budget / rate : 0.0;
-    if (dt < best) {
+    if (!(rate >= 0.0) || !std::isfinite(rate)) continue;
+    evidence = true;
+    // What is left of the budget (fraction x ACL)² after the fit's noise and the prediction's change.
+    const double dy = entry(ctx.prediction_change, i);
+    const double left = std::pow(adaptive_.fraction * ctx.acl(i), 2) - entry(ctx.noise_var, i) -
+                        entry(ctx.kappa, i) * dy * dy;
+    const double dt = left <= 0.0 ? 0.0 : rate > 0.0 ? left / rate : kNever;
+    if (dt < best || which < 0) {
       best = dt;
       which = static_cast<int>(i);
     }
   }
-  if (which < 0) return {paper, -1};
+  if (!evidence) return {paper, -1};
   return {std::clamp(best, adaptive_.min_interval_s, adaptive_.max_interval_s), which};
 }
 
 double AdaptiveSchedule::next_due(const ScheduleContext& ctx) const {
   if (ctx.phase != Phase::PostCalibration) return PaperSchedule::next_due(ctx);
-  return ctx.now_s + post_cp_interval(ctx).first;
+  return since(ctx) + post_cp_interval(ctx).first;
 }
 
 std::string AdaptiveSchedule::explain(const ScheduleContext& ctx) const {
   if (ctx.phase != Phase::PostCalibration) return {};
   const auto [dt, which] = post_cp_interval(ctx);
-  char text[256];
+  const double from = since(ctx);
+  const double elapsed = ctx.now_s - from;
+  const bool now = elapsed > 0.0;  // asked at a sample after the decision: the probe is due now
+  char text[384];
   if (which < 0) {
     std::snprintf(text, sizeof text, "adaptive: next probe in %.2f h (no drift evidence yet: the Post-CP interval)",
                   dt / 3600.0);
@@ -86,13 +100,25 @@ std::string AdaptiveSchedule::explain(const ScheduleContext& ctx) const {
   const std::string name = ctx.output_names && static_cast<std::size_t>(which) < ctx.output_names->size()
                                ? (*ctx.output_names)[static_cast<std::size_t>(which)]
                                : "output " + std::to_string(which);
-  const double noise = i < ctx.noise_var.size() && std::isfinite(ctx.noise_var(i)) ? ctx.noise_var(i) : 0.0;
+  const double noise = entry(ctx.noise_var, i);
+  const double dy = entry(ctx.prediction_change, i);
+  const double moved = entry(ctx.kappa, i) * dy * dy;
   const char* bound = dt <= adaptive_.min_interval_s ? " (the minimum interval)"
                       : dt >= adaptive_.max_interval_s ? " (the maximum interval)" : "";
+  if (now) {
+    std::snprintf(text, sizeof text,
+                  "adaptive: probe due now, %.2f h after the last: the predicted sigma of %s reaches %.2f x its ACL "
+                  "%.3g: the prediction moved by %.3g since (kappa %.3g: %.3g), drift %.3g per h, fit noise %.3g "
+                  "(squared units)",
+                  elapsed / 3600.0, name.c_str(),
+                  adaptive_.fraction, ctx.acl(i), dy, entry(ctx.kappa, i), moved, ctx.drift_rate(i) * 3600.0, noise);
+    return text;
+  }
   std::snprintf(text, sizeof text,
                 "adaptive: next probe in %.2f h%s: the predicted sigma of %s reaches %.2f x its ACL %.3g "
-                "(drift %.3g per h, fit noise %.3g, squared units)",
-                dt / 3600.0, bound, name.c_str(), adaptive_.fraction, ctx.acl(i), ctx.drift_rate(i) * 3600.0, noise);
+                "(drift %.3g per h, kappa %.3g, fit noise %.3g, squared units), earlier if the prediction moves",
+                dt / 3600.0, bound, name.c_str(), adaptive_.fraction, ctx.acl(i), ctx.drift_rate(i) * 3600.0,
+                entry(ctx.kappa, i), noise);
   return text;
 }
 

@@ -55,6 +55,11 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.vector(c.error_low);
   e.vector(c.error_high);
   e.vector(c.guard_off_range);
+  // Version 6: the adaptive schedule's evidence of the prediction's change since the last decision.
+  e.vector(c.kappa);
+  e.f64(c.schedule_since_s);
+  e.vector(c.schedule_prediction);
+  e.matrix(c.schedule_sums);
 }
 
 ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
@@ -122,6 +127,12 @@ ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
     c.error_high = d.vector("error_high");
     c.guard_off_range = d.vector("guard_off_range");
   }
+  if (version >= 6) {
+    c.kappa = d.vector("kappa");
+    c.schedule_since_s = d.f64("schedule_since_s");
+    c.schedule_prediction = d.vector("schedule_prediction");
+    c.schedule_sums = d.matrix("schedule_sums");
+  }  // before: the controller starts them (init_evidence): kappa 0, the change from the last probe on
   return c;
 }
 
@@ -152,8 +163,8 @@ RunState decode_run_state(const std::string& payload) {
     throw std::runtime_error("run state: checksum mismatch (the snapshot is damaged)");
   ByteReader d(body, "run state");
   const std::uint32_t version = d.read_header(kRunStateFormat);
-  if (version != kRunStateVersion && version != 3 && version != 4)
-    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads 3, 4 and " +
+  if (version != kRunStateVersion && (version < 3 || version > kRunStateVersion))
+    throw std::runtime_error("run state: version " + std::to_string(version) + ", this program reads 3 to " +
                              std::to_string(kRunStateVersion));
   RunState s;
   s.next_index = d.i64("next_index");

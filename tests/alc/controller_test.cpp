@@ -642,6 +642,131 @@ TEST_CASE("controller: the adaptive schedule shortens the interval when the resi
   CHECK(intervals.back() < 1 * kHour);  // shorter than the paper's interval of 1 h
 }
 
+namespace {
+
+// Runs a copy of `state` (Post-CP, just decided) minute by minute on `inputs(t)` until a probe is due;
+// returns that time and the events on the way.
+std::pair<double, std::vector<ControllerEvent>> first_due(const AlcParameters& p, const ControllerState& state,
+                                                          const std::function<Eigen::VectorXd(double)>& inputs) {
+  Controller c({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p, state);
+  std::vector<ControllerEvent> events;
+  for (double t = state.now_s + kMinute; t < state.now_s + 24 * kHour; t += kMinute) {
+    const ControllerOutput out = c.on_sample(t, inputs(t));
+    events.insert(events.end(), out.events.begin(), out.events.end());
+    if (t >= out.next_probe_due_s) return {t, events};
+  }
+  return {kInf, events};
+}
+
+}  // namespace
+
+TEST_CASE("controller: the adaptive schedule probes earlier when the prediction moves fast, not when it stays") {
+  AlcParameters p = test_parameters();
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.min_interval_s = 0.25 * kHour;
+  p.max_interval_s = 4 * kHour;
+  Driver d(p);
+  d.run_until(2 * kHour + kMinute);  // CP ended at 2 h: the first decision is the paper's 1 h
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  ControllerState s = d.controller.state();
+  REQUIRE(s.schedule_since_s == 2 * kHour);
+  REQUIRE(s.next_probe_due_s == 3 * kHour);
+  // The evidence says: E_X0C's error grows by 1 µm² per µm² of prediction change (a model whose gain is off).
+  // E_X0C's drift alone would last 2 h: E_A0C's 1 h decides, unless E_X0C's prediction moves.
+  s.drift_rate(0) *= 0.5;
+  s.kappa(0) = 1.0;
+  Plant moving = d.plant;
+  const auto [fast, fast_events] = first_due(p, s, [&](double t) {
+    moving.advance(t);
+    return moving.inputs(t);
+  });
+  // Held inputs: the prediction settles (the lag of the last 17 min) and stays.
+  const Eigen::VectorXd held = d.plant.inputs(d.t - kMinute);
+  const auto [still, still_events] = first_due(p, s, [&](double) { return held; });
+  // The same evidence without kappa: the time alone.
+  s.kappa(0) = 0.0;
+  const auto [timed, timed_events] = first_due(p, s, [&](double t) {
+    Plant again = d.plant;
+    again.advance(t);
+    return again.inputs(t);
+  });
+  CHECK(timed == 3 * kHour);
+  CHECK(still == 3 * kHour);
+  CHECK(fast < 3 * kHour);
+  CHECK(fast >= 2 * kHour + p.min_interval_s);
+  // One event says why the probe came early, and it is the only interval event on the way (no flood).
+  REQUIRE(fast_events.size() == 1);
+  CHECK(fast_events[0].type == ControllerEvent::Type::ProbeIntervalChange);
+  CHECK(fast_events[0].time_s == fast);
+  CHECK(fast_events[0].interval_s == Approx(fast - 2 * kHour));
+  CHECK_THAT(fast_events[0].reason, Catch::Contains("probe due now") && Catch::Contains("E_X0C") &&
+                                        Catch::Contains("the prediction moved by"));
+  CHECK(still_events.empty());
+  CHECK(timed_events.empty());
+}
+
+TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gain is off, and resumes bit for bit") {
+  AlcParameters p = test_parameters();
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.refit_on_probe = true;
+  p.min_interval_s = 0.25 * kHour;
+  p.max_interval_s = 4 * kHour;
+  p.acl_linear_um = 10.0;  // the gain error stays below the ACL: only the schedule reacts
+  p.acl_angular_um_per_m = 30.0;
+  p.uncertainty_fraction = 0.3;
+  // After CP the plant's E_X0C gain grows by 0.1 µm/K an hour: the refits, on the older probes too, are
+  // behind, and the residual at a probe grows with how far the lag moved since the last one.
+  const auto gain_drift = [](Driver& d, double t) { d.plant.offset_x = 0.1 * (t - 2 * kHour) / kHour * d.plant.lag; };
+  double kappa = 0.0;  // the largest kappa of E_X0C learned
+  const auto run = [&](Driver& d, double until) {
+    for (; d.t < until; d.t += kMinute) {
+      d.plant.advance(d.t);
+      if (d.t > 2 * kHour) gain_drift(d, d.t);
+      const auto out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
+      d.events.insert(d.events.end(), out.events.begin(), out.events.end());
+      if (d.t >= out.next_probe_due_s) {
+        const auto pout = d.controller.on_probe(ProbeMeasurement{d.t, d.plant.errors(), {}});
+        d.events.insert(d.events.end(), pout.events.begin(), pout.events.end());
+        kappa = std::max(kappa, d.controller.state().kappa(0));
+      }
+    }
+  };
+  Driver whole(p);
+  run(whole, 60 * kHour);
+  CHECK(kappa > 0.0);
+  int early = 0;
+  for (const auto& e : whole.of_type(ControllerEvent::Type::ProbeIntervalChange)) {
+    if (e.reason.rfind("adaptive: probe due now", 0) == 0) ++early;
+    if (e.time_s > 2 * kHour) CHECK(e.interval_s <= p.max_interval_s);
+    if (e.time_s > 2 * kHour) CHECK(e.interval_s >= p.min_interval_s);
+  }
+  CHECK(early > 0);
+  // Saved in the middle (before, between and after early probes), restored, continued: the same run.
+  for (const double stop : {2 * kHour + 20 * kMinute, 11 * kHour + 7 * kMinute, 30 * kHour + 31 * kMinute}) {
+    Driver a(p);
+    run(a, stop);
+    Driver b(p);
+    b.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p, a.controller.state());
+    b.plant = a.plant;
+    b.t = a.t;
+    b.events = a.events;
+    run(a, 60 * kHour);
+    run(b, 60 * kHour);
+    INFO("saved at " << stop / kHour << " h");
+    REQUIRE(a.events.size() == b.events.size());
+    for (std::size_t i = 0; i < a.events.size(); ++i) {
+      REQUIRE(a.events[i].time_s == b.events[i].time_s);
+      REQUIRE(a.events[i].reason == b.events[i].reason);
+    }
+    CHECK(a.events.size() == whole.events.size());
+    CHECK(a.controller.state().kappa == b.controller.state().kappa);
+    CHECK(a.controller.state().drift_rate == b.controller.state().drift_rate);
+    CHECK(a.controller.state().schedule_sums == b.controller.state().schedule_sums);
+    CHECK(a.controller.state().prediction == b.controller.state().prediction);
+    CHECK(a.controller.state().next_probe_due_s == b.controller.state().next_probe_due_s);
+  }
+}
+
 // The errors vanish from 2 h on while no identification succeeds any more (the model stays): the
 // model's predictions are wrong, no compensation would be right.
 Driver wrong_model(bool guard) {

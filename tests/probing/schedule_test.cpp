@@ -120,3 +120,60 @@ TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches
   c.phase = Phase::PostCalibration;
   CHECK(std::isinf(AdaptiveSchedule(never).next_due(c)));
 }
+
+TEST_CASE("schedule: the adaptive policy brings the probe forward when the prediction moves, within its bounds") {
+  AdaptiveScheduleOptions o;
+  o.paper.post_cp_interval_s = 2 * 3600.0;
+  o.fraction = 0.5;
+  o.min_interval_s = 1800.0;
+  o.max_interval_s = 12 * 3600.0;
+  const AdaptiveSchedule s(o);
+  CHECK(s.checks_each_sample());
+  CHECK_FALSE(PaperSchedule(o.paper).checks_each_sample());
+  const std::vector<std::string> names = {"E_X0C", "E_A0C"};
+  ScheduleContext c;
+  c.phase = Phase::PostCalibration;
+  c.output_names = &names;
+  c.acl = Eigen::Vector2d(5.0, 15.0);
+  c.noise_var = Eigen::Vector2d(0.25, 0.0);
+  c.drift_rate = Eigen::Vector2d(1e-3, 1e-3);
+  c.kappa = Eigen::Vector2d(0.5, 0.0);
+  c.since_s = 1000.0;  // the decision: E_X0C's budget (0.5 * 5)^2 - 0.25 = 6 µm² lasts 6000 s without a move
+  c.now_s = 1000.0;
+  c.prediction_change = Eigen::Vector2d::Zero();
+  const double still = s.next_due(c);
+  CHECK(still == Approx(1000.0 + 6000.0));
+  CHECK_THAT(s.explain(c), Catch::Contains("next probe in 1.67 h") && Catch::Contains("earlier if the prediction moves"));
+  // A sample 1000 s later with a prediction that has moved by 2 µm: kappa * 4 = 2 µm² of the budget are
+  // gone, the rest lasts 4000 s from the decision, not 6000 s.
+  c.now_s = 2000.0;
+  c.prediction_change = Eigen::Vector2d(2.0, 0.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + 4000.0));
+  // It moved by 3 µm: 4.5 µm² gone, 1500 s left: earlier than the minimum interval, so the minimum.
+  c.prediction_change = Eigen::Vector2d(3.0, 0.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + 1800.0));
+  // Moved by 4 µm: beyond the budget; due at the minimum interval after the decision, not before.
+  c.prediction_change = Eigen::Vector2d(-4.0, 0.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + 1800.0));
+  c.now_s = 1000.0 + 1800.0;
+  CHECK_THAT(s.explain(c), Catch::Contains("probe due now, 0.50 h after the last") && Catch::Contains("E_X0C") &&
+                               Catch::Contains("the prediction moved by -4"));
+  // A move of E_A0C, whose kappa is 0, changes nothing: the uncertainty grows with what the evidence says.
+  c.prediction_change = Eigen::Vector2d(0.0, 50.0);
+  CHECK(s.next_due(c) == Approx(still));
+  // Without drift the move alone decides; a model whose residuals stay at the noise waits the maximum.
+  c.drift_rate = Eigen::Vector2d(0.0, 0.0);
+  c.prediction_change = Eigen::Vector2d(4.0, 0.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + 1800.0));
+  c.prediction_change = Eigen::Vector2d(1.0, 0.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + 12 * 3600.0));
+  // A fast move cannot push the probe beyond the bounds either way, whatever the evidence.
+  for (const double move : {0.0, 0.5, 1.0, 2.0, 3.0, 10.0, 1e6})
+    for (const double rate : {0.0, 1e-6, 1e-3, 1.0}) {
+      c.drift_rate = Eigen::Vector2d(rate, rate);
+      c.prediction_change = Eigen::Vector2d(move, -move);
+      const double due = s.next_due(c);
+      CHECK(due >= 1000.0 + o.min_interval_s);
+      CHECK(due <= 1000.0 + o.max_interval_s);
+    }
+}

@@ -121,6 +121,47 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
   }
 }
 
+TEST_CASE("load case A with the adaptive schedule: a run stopped and resumed from its history continues bit for bit") {
+  const auto simulated = simulate_case("A");
+  AlcParameters p;
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.min_interval_s = 0.25 * 3600.0;
+  Replay uninterrupted(simulated.scenario, in_memory(p));
+  uninterrupted.run();
+  const ReplayReport whole = uninterrupted.report();
+  const ControllerState& end = uninterrupted.controller().state();
+  REQUIRE((end.kappa.array() > 0.0).any());  // the prediction's change is part of the evidence on A
+  for (double stop_h : {7.0, 40.5, 150.0}) {
+    const auto db = temp_db("cases-A-adaptive");
+    ReplayOptions o = in_memory(p);
+    o.source = "case A";
+    o.db = db;
+    o.stop_time_s = stop_h * 3600.0;
+    {
+      Replay first(simulated.scenario, o);
+      first.run();
+    }
+    o.resume = true;
+    o.stop_time_s = kInf;
+    Replay second(simulated.scenario, o);
+    second.run();
+    const ReplayReport r = second.report();
+    INFO("stopped at " << stop_h << " h");
+    CHECK(r.M == whole.M);
+    const ControllerState& c = second.controller().state();
+    REQUIRE(c.probes.size() == end.probes.size());
+    for (std::size_t k = 0; k < c.probes.size(); ++k) CHECK(c.probes[k].time_s == end.probes[k].time_s);
+    CHECK(c.next_probe_due_s == end.next_probe_due_s);
+    // The schedule's evidence (run state version 6) continues alike.
+    CHECK(c.drift_rate == end.drift_rate);
+    CHECK(c.kappa == end.kappa);
+    CHECK(c.schedule_sums == end.schedule_sums);
+    CHECK(c.schedule_since_s == end.schedule_since_s);
+    CHECK(c.schedule_prediction == end.schedule_prediction);
+    for (std::size_t k = 0; k < r.outputs.size(); ++k) CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
+  }
+}
+
 TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refused") {
   const auto simulated = simulate_case("A");
   Replay session(simulated.scenario, in_memory(AlcParameters{}));
@@ -140,6 +181,12 @@ TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refuse
   CHECK(decoded.controller.error_low == live.error_low);
   CHECK(decoded.controller.error_high == live.error_high);
   CHECK(decoded.controller.guard_off_range == live.guard_off_range);
+  // And the schedule's evidence of the prediction's change (version 6).
+  CHECK(decoded.controller.kappa == live.kappa);
+  CHECK(decoded.controller.schedule_since_s == live.schedule_since_s);
+  CHECK(decoded.controller.schedule_since_s >= 6.5 * 3600.0);  // CP ended at 6.5 h
+  CHECK(decoded.controller.schedule_prediction == live.schedule_prediction);
+  CHECK(decoded.controller.schedule_sums == live.schedule_sums);
   CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
   CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
   std::string flipped = bytes;

@@ -157,6 +157,11 @@ struct ControllerState {
   double last_probe_s = -kInf;         // [s] time of the latest probe
   Eigen::VectorXd drift_rate;          // [unit²/s] growth of the residual variance after a probe (NaN: unknown)
   Eigen::VectorXd noise_var;           // [unit²] residual variance of the latest usable fit
+  Eigen::VectorXd kappa;               // [-] growth of that variance per squared change of the prediction
+  double schedule_since_s = -kInf;     // [s] the latest Post-CP schedule decision (a probe, or CP end)
+  Eigen::VectorXd schedule_prediction; // [unit] the model's prediction at that decision
+  Eigen::MatrixXd schedule_sums;       // per output, decaying sums of the regression of the variance growth
+                                       //     rate on the squared prediction change rate: w, x, x², y, x·y
   // The guard's evidence (docs/adaptive.md), per output, kept whether or not the guard is on:
   Eigen::VectorXd guard_cross;         // [unit²] decaying sum over Post-CP probes of error x prediction
   Eigen::VectorXd guard_power;         // [unit²] the same of prediction² (the gain is cross / power)
@@ -216,6 +221,10 @@ class Controller {
   void set_interval(double interval_s, double time_s, ControllerOutput& out, const std::string& reason);
   // next_probe_due_s after a decision at `time_s`, with an event when the policy explains it.
   void schedule_next(double time_s, ControllerOutput& out);
+  // At a sample after CP, for a policy that checks each sample: the probe is due now if the evidence says so.
+  void check_due(double time_s, ControllerOutput& out);
+  // A Post-CP probe's residuals (against the prediction when it ran): the drift and kappa evidence.
+  void weigh_schedule(double time_s, const Eigen::VectorXd& residuals);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
   void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
   // The prediction with the guard applied (what is compensated); with `out`, also the events of an

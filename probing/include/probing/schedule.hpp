@@ -37,10 +37,14 @@ struct ScheduleContext {
   double last_update_s = -kNever;  // [s] time of the last model update (-inf: none yet)
   int ng_probes = 0;               // probes taken in the current NG phase
   // The evidence an adaptive policy weighs (per output; empty before CP ends): how fast the variance
-  // of the compensated error grows after a probe, the residual variance of the latest fit, the ACL.
+  // of the compensated error grows after a probe, in time and with the change of the prediction since,
+  // the residual variance of the latest fit, the ACL.
   Eigen::VectorXd drift_rate;      // [unit²/s] NaN: not known
+  Eigen::VectorXd kappa;           // [-] variance per squared change of the prediction (empty: 0)
   Eigen::VectorXd noise_var;       // [unit²]
   Eigen::VectorXd acl;             // [µm] or [µm/m]
+  double since_s = -kNever;        // [s] the Post-CP decision (a probe) the uncertainty grows from (-inf: now_s)
+  Eigen::VectorXd prediction_change;  // [unit] the model's prediction now minus at since_s (empty: 0)
   const std::vector<std::string>* output_names = nullptr;  // for reasons
 };
 
@@ -63,6 +67,10 @@ class SchedulePolicy {
   // Why next_due(ctx) is what it is, for a policy whose interval varies (an event per decision);
   // empty for a fixed interval (the interval events say it).
   virtual std::string explain(const ScheduleContext& /*ctx*/) const { return {}; }
+  // Whether the controller asks next_due() again at every input sample after CP, with the evidence
+  // of that moment (ctx.now_s the sample, ctx.since_s the decision): a due time at or before the
+  // sample makes the probe due there (an event with explain(ctx)). A fixed interval does not.
+  virtual bool checks_each_sample() const { return false; }
   // Whether a breach in Post-CP starts an NG burst (false: identify at the breach, stay in Post-CP).
   virtual bool ng_burst() const = 0;
   // After the NG probe number `ctx.ng_probes` (1 = the first), `breaching`: it broke the ACL.
@@ -100,9 +108,12 @@ class PaperSchedule : public SchedulePolicy {
 };
 
 // Probe when the model is unsure (docs/adaptive.md): after CP, the next probe is due when the predicted
-// standard deviation of the compensated error of some output, sqrt(noise_var + drift_rate * dt), reaches
-// `fraction` x its ACL, within [min_interval_s, max_interval_s]. CP, the NG burst and the breach
-// confirmation are seed 004's (PaperSchedule); without evidence yet, the Post-CP interval is the paper's.
+// standard deviation of the compensated error of some output,
+//   sqrt(noise_var + drift_rate * dt + kappa * dy^2),   dt = now - since, dy = prediction change since,
+// reaches `fraction` x its ACL, within [min_interval_s, max_interval_s] after the decision. It is asked
+// at every sample (checks_each_sample): a prediction that moves fast brings the probe forward. CP, the
+// NG burst and the breach confirmation are seed 004's (PaperSchedule); without evidence yet, the
+// Post-CP interval is the paper's.
 struct AdaptiveScheduleOptions {
   PaperScheduleOptions paper;
   double fraction = 0.5;                   // [-] of the ACL
@@ -116,10 +127,11 @@ class AdaptiveSchedule : public PaperSchedule {
   std::string_view name() const override { return "adaptive"; }
   double next_due(const ScheduleContext& ctx) const override;
   std::string explain(const ScheduleContext& ctx) const override;
+  bool checks_each_sample() const override { return true; }
   const AdaptiveScheduleOptions& adaptive_options() const { return adaptive_; }
 
  private:
-  // [s] the interval and the output that sets it (-1: none, the paper's interval or a bound).
+  // [s] the interval from ctx.since_s and the output that sets it (-1: none, the paper's interval or a bound).
   std::pair<double, int> post_cp_interval(const ScheduleContext& ctx) const;
   AdaptiveScheduleOptions adaptive_;
 };
