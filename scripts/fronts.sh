@@ -10,7 +10,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 alc=$(realpath "${ALC:-$here/build/rel/cli/alc}")
-out=${1:-$here/build/fronts}
+out=$(realpath -m "${1:-$here/build/fronts}")  # absolute: the seed studies run inside its recordings/
 seeds=${SEEDS:-2 3}
 jobs=${JOBS:-2}
 cases="A B C D S16 H1 H2 H3 H4 H5"
