@@ -59,6 +59,15 @@ AlcParameters test_parameters() {
   return p;
 }
 
+// test_parameters() with the adaptive schedule between `min_h` and `max_h` hours.
+AlcParameters adaptive_parameters(double min_h, double max_h) {
+  AlcParameters p = test_parameters();
+  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  p.min_interval_s = min_h * kHour;
+  p.max_interval_s = max_h * kHour;
+  return p;
+}
+
 // Drives a controller minute by minute, probing whenever it asks; collects every event.
 struct Driver {
   Plant plant;
@@ -596,10 +605,7 @@ TEST_CASE("controller: a restored state continues bit for bit") {
 }
 
 TEST_CASE("controller: the adaptive schedule lengthens the Post-CP interval while the model holds and explains each decision") {
-  AlcParameters p = test_parameters();
-  p.schedule_kind = AlcParameters::Schedule::Adaptive;
-  p.min_interval_s = 0.5 * kHour;
-  p.max_interval_s = 4 * kHour;
+  AlcParameters p = adaptive_parameters(0.5, 4);
   Driver d(p);
   CHECK(d.controller.schedule().name() == "adaptive");
   d.run_until(30 * kHour);
@@ -661,10 +667,7 @@ std::pair<double, std::vector<ControllerEvent>> first_due(const AlcParameters& p
 }  // namespace
 
 TEST_CASE("controller: the adaptive schedule probes earlier when the prediction moves fast, not when it stays") {
-  AlcParameters p = test_parameters();
-  p.schedule_kind = AlcParameters::Schedule::Adaptive;
-  p.min_interval_s = 0.25 * kHour;
-  p.max_interval_s = 4 * kHour;
+  AlcParameters p = adaptive_parameters(0.25, 4);
   Driver d(p);
   d.run_until(2 * kHour + kMinute);  // CP ended at 2 h: the first decision is the paper's 1 h
   REQUIRE(d.controller.phase() == Phase::PostCalibration);
@@ -706,11 +709,8 @@ TEST_CASE("controller: the adaptive schedule probes earlier when the prediction 
 }
 
 TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gain is off, and resumes bit for bit") {
-  AlcParameters p = test_parameters();
-  p.schedule_kind = AlcParameters::Schedule::Adaptive;
+  AlcParameters p = adaptive_parameters(0.25, 4);
   p.refit_on_probe = true;
-  p.min_interval_s = 0.25 * kHour;
-  p.max_interval_s = 4 * kHour;
   p.acl_linear_um = 10.0;  // the gain error stays below the ACL: only the schedule reacts
   p.acl_angular_um_per_m = 30.0;
   p.uncertainty_fraction = 0.3;

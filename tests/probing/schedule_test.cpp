@@ -79,12 +79,18 @@ TEST_CASE("accounting: productivity Pd of Eq. 7 with T_M = 95 s") {
   CHECK(to_string(Phase::NoGood) == "NG");
 }
 
-TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches the fraction of the ACL") {
+// The adaptive policy of these tests: half the ACL, 0.5-12 h, the paper's Post-CP interval 2 h.
+static AdaptiveScheduleOptions adaptive_options() {
   AdaptiveScheduleOptions o;
   o.paper.post_cp_interval_s = 2 * 3600.0;
   o.fraction = 0.5;
   o.min_interval_s = 1800.0;
   o.max_interval_s = 12 * 3600.0;
+  return o;
+}
+
+TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches the fraction of the ACL") {
+  const AdaptiveScheduleOptions o = adaptive_options();
   const AdaptiveSchedule s(o);
   CHECK(s.name() == "adaptive");
   const std::vector<std::string> names = {"E_X0C", "E_A0C"};
@@ -122,11 +128,7 @@ TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches
 }
 
 TEST_CASE("schedule: the adaptive policy brings the probe forward when the prediction moves, within its bounds") {
-  AdaptiveScheduleOptions o;
-  o.paper.post_cp_interval_s = 2 * 3600.0;
-  o.fraction = 0.5;
-  o.min_interval_s = 1800.0;
-  o.max_interval_s = 12 * 3600.0;
+  const AdaptiveScheduleOptions o = adaptive_options();
   const AdaptiveSchedule s(o);
   CHECK(s.checks_each_sample());
   CHECK_FALSE(PaperSchedule(o.paper).checks_each_sample());

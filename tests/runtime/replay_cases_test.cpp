@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include "../cli_support.hpp"
@@ -73,6 +74,24 @@ TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s re
   CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, /*baseline=*/true));
 }
 
+// Case A run into a fresh history up to `stop_h`, then resumed from that history to its end: the resumed run.
+static std::unique_ptr<Replay> stopped_and_resumed(const alc::scenarios::Scenario& scenario, const AlcParameters& p,
+                                                   const std::string& db_name, double stop_h) {
+  ReplayOptions o = in_memory(p);
+  o.source = "case A";
+  o.db = temp_db(db_name);
+  o.stop_time_s = stop_h * 3600.0;
+  {
+    Replay first(scenario, o);
+    first.run();
+  }
+  o.resume = true;
+  o.stop_time_s = kInf;
+  auto second = std::make_unique<Replay>(scenario, o);
+  second->run();
+  return second;
+}
+
 TEST_CASE("load case A: a run stopped at many points and resumed from its history continues bit for bit") {
   const auto simulated = simulate_case("A");
   Replay uninterrupted(simulated.scenario, in_memory(AlcParameters{}));
@@ -80,26 +99,14 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
   const ReplayReport whole = uninterrupted.report();
   const ControllerState& end = uninterrupted.controller().state();
   for (double stop_h : {0.0, 6.0, 6.5, 7.0, 30.0, 100.25, 191.0}) {
-    const auto db = temp_db("cases-A");
-    ReplayOptions o = in_memory(AlcParameters{});
-    o.source = "case A";
-    o.db = db;
-    o.stop_time_s = stop_h * 3600.0;
-    {
-      Replay first(simulated.scenario, o);
-      first.run();
-    }
-    o.resume = true;
-    o.stop_time_s = kInf;
-    Replay second(simulated.scenario, o);
-    second.run();
-    const ReplayReport r = second.report();
+    const auto second = stopped_and_resumed(simulated.scenario, AlcParameters{}, "cases-A", stop_h);
+    const ReplayReport r = second->report();
     INFO("stopped at " << stop_h << " h");
     CHECK(r.M == whole.M);
     CHECK(r.updates == whole.updates);
     CHECK(r.ng_phases == whole.ng_phases);
     // The decisions themselves, not only the indicators: every probe time, the model, its state.
-    const ControllerState& c = second.controller().state();
+    const ControllerState& c = second->controller().state();
     REQUIRE(c.probes.size() == end.probes.size());
     for (std::size_t k = 0; k < c.probes.size(); ++k) CHECK(c.probes[k].time_s == end.probes[k].time_s);
     CHECK(c.structure_span_s == end.structure_span_s);
@@ -132,23 +139,11 @@ TEST_CASE("load case A with the adaptive schedule: a run stopped and resumed fro
   const ControllerState& end = uninterrupted.controller().state();
   REQUIRE((end.kappa.array() > 0.0).any());  // the prediction's change is part of the evidence on A
   for (double stop_h : {7.0, 40.5, 150.0}) {
-    const auto db = temp_db("cases-A-adaptive");
-    ReplayOptions o = in_memory(p);
-    o.source = "case A";
-    o.db = db;
-    o.stop_time_s = stop_h * 3600.0;
-    {
-      Replay first(simulated.scenario, o);
-      first.run();
-    }
-    o.resume = true;
-    o.stop_time_s = kInf;
-    Replay second(simulated.scenario, o);
-    second.run();
-    const ReplayReport r = second.report();
+    const auto second = stopped_and_resumed(simulated.scenario, p, "cases-A-adaptive", stop_h);
+    const ReplayReport r = second->report();
     INFO("stopped at " << stop_h << " h");
     CHECK(r.M == whole.M);
-    const ControllerState& c = second.controller().state();
+    const ControllerState& c = second->controller().state();
     REQUIRE(c.probes.size() == end.probes.size());
     for (std::size_t k = 0; k < c.probes.size(); ++k) CHECK(c.probes[k].time_s == end.probes[k].time_s);
     CHECK(c.next_probe_due_s == end.next_probe_due_s);
