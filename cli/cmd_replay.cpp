@@ -88,7 +88,9 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   try {
     return runtime::parameters_of(o);
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("--") + e.what());
+    // An option's text names the option ("max-interval: ..."); a combination the controller refuses does not.
+    const std::string what = e.what();
+    throw UsageError(what.rfind("invalid parameters", 0) == 0 ? what : "--" + what);
   }
 }
 

@@ -13,6 +13,11 @@ Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts
 - along Pd: the best P99 each front reaches at a Pd of at least p, for p over the Pd range of the two
   fronts in steps of 0.01 %; the Pd ranges where B's P99 is lower (B wins) and where A's is (A wins;
   a front that does not reach p has no P99 there and loses). These are where the fronts cross.
+Then the pooled comparison: per group of recordings (A-D, the held-out cases H1-H5, all; each at the
+own seeds, at each other seed and at all seeds together) one point per parameter set, the mean over
+the group's recordings of its linear P99 and of its Pd, so a front of sets that a user would set once
+for every machine of the group rather than pick per recording in hindsight; the same Pd ranges and
+dominated points as above.
 With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
 Standard library only.
 """
@@ -39,6 +44,31 @@ def rows(path):
             k = case_key(r["case"])
             by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), r["set"]))
     return by_case
+
+
+def pooled(by_case, keys):
+    """One point per set that ran on every recording of `keys`: its mean P99 and mean Pd over them."""
+    sums = defaultdict(lambda: [0.0, 0.0, 0])
+    for k in keys:
+        for p99, pd, s in by_case.get(k, []):
+            sums[s][0] += p99
+            sums[s][1] += pd
+            sums[s][2] += 1
+    return [(p / n, d / n, s) for s, (p, d, n) in sums.items() if n == len(keys)]
+
+
+def groups(keys):
+    """(name, keys) of the pooled comparison: A-D, held-out, all; at each seed and at all seeds."""
+    kinds = [("A-D", lambda c: c in ("A", "B", "C", "D")), ("held-out", lambda c: c.startswith("H")),
+             ("all", lambda c: True)]
+    seeds = sorted({k[1] for k in keys}, key=lambda s: (s != "own", s))
+    out = []
+    for name, kind in kinds:
+        for seed in seeds + ["all seeds"]:
+            ks = [k for k in keys if kind(k[0]) and (seed == "all seeds" or k[1] == seed)]
+            if ks and not (seed == "all seeds" and len(seeds) == 1):
+                out.append((f"{name}, {'own seeds' if seed == 'own' else seed} ({len(ks)})", ks))
+    return out
 
 
 def front(points):
@@ -133,6 +163,20 @@ def main():
         print(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
               f"{la} lower on {100 * wins['a'] / total:.1f} %, equal (within 0.005 µm) on "
               f"{100 * wins['='] / total:.1f} % of the Pd range")
+    print(f"\npooled: one point per set, the mean linear P99 and mean Pd over the group's recordings\n")
+    print(f"| group (recordings) | {la} points dominated by {lb} | {lb} points dominated by {la} | "
+          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
+          f"{lb} / {la} / equal |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, ks in groups(keys):
+        fa, fb = front(pooled(ra, ks)), front(pooled(rb, ks))
+        da = sum(any(dominates(q, p) for q in fb) for p in fa)
+        db = sum(any(dominates(q, p) for q in fa) for p in fb)
+        ranges = crossings(fa, fb)
+        (wb, tb), (wa, ta), (we, _) = describe(ranges, "b"), describe(ranges, "a"), describe(ranges, "=")
+        total = wa + wb + we
+        share = f"{100 * wb / total:.1f} / {100 * wa / total:.1f} / {100 * we / total:.1f} %" if total else "—"
+        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} |")
     if args.fronts:
         print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")
         show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr)

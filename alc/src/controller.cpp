@@ -91,11 +91,11 @@ std::string AlcParameters::validate() const {
   if (std::isnan(learning_since_s) || learning_since_s == kInf)
     return describe("learning_since_s", learning_since_s, "must be a time or -inf");
   if (const std::string why = identification.validate(); !why.empty()) return "identification: " + why;
-  if (!(uncertainty_fraction > 0.0 && uncertainty_fraction <= 1.0))
-    return describe("uncertainty_fraction", uncertainty_fraction, "must be in (0, 1]");
+  if (!positive_finite(uncertainty_fraction))
+    return describe("uncertainty_fraction", uncertainty_fraction, "must be positive and finite");
   if (!positive_finite(min_interval_s)) return describe("min_interval_s", min_interval_s, "must be positive and finite");
-  if (!(max_interval_s >= min_interval_s) || std::isinf(max_interval_s))
-    return describe("max_interval_s", max_interval_s, "must be finite and not below min_interval_s");
+  if (!(max_interval_s >= min_interval_s))
+    return describe("max_interval_s", max_interval_s, "must not be below min_interval_s (inf: no bound)");
   const std::pair<const char*, double> limits[] = {{"plausible_linear_um", plausible_linear_um},
                                                    {"plausible_angular_um_per_m", plausible_angular_um_per_m},
                                                    {"plausible_temperature_C", plausible_temperature_C},

@@ -114,6 +114,13 @@ std::string AdaptiveSchedule::explain(const ScheduleContext& ctx) const {
                   adaptive_.fraction, ctx.acl(i), dy, entry(ctx.kappa, i), moved, ctx.drift_rate(i) * 3600.0, noise);
     return text;
   }
+  if (!std::isfinite(dt)) {
+    std::snprintf(text, sizeof text,
+                  "adaptive: no probe due: the predicted sigma of %s stays below %.2f x its ACL %.3g without a drift "
+                  "(kappa %.3g, fit noise %.3g, squared units), unless the prediction moves",
+                  name.c_str(), adaptive_.fraction, ctx.acl(i), entry(ctx.kappa, i), noise);
+    return text;
+  }
   std::snprintf(text, sizeof text,
                 "adaptive: next probe in %.2f h%s: the predicted sigma of %s reaches %.2f x its ACL %.3g "
                 "(drift %.3g per h, kappa %.3g, fit noise %.3g, squared units), earlier if the prediction moves",

@@ -47,10 +47,11 @@ const std::vector<ParameterOption>& parameter_options() {
       {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach},
       {"schedule", "-", "paper or adaptive", "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
        Stage::CpEnd},
-      {"uncertainty-fraction", "-", "a number in (0, 1]",
+      {"uncertainty-fraction", "-", "a number > 0",
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL", Stage::CpEnd},
       {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
-      {"max-interval", "h", kNumber, "Adaptive: longest Post-CP interval", Stage::CpEnd},
+      {"max-interval", "h", kNumberOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
+       Stage::CpEnd},
       {"guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
        Stage::CpEnd},
       {"plausible-lin", "µm", kNumberOrInf,
@@ -98,7 +99,7 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   else if (name == "guard") p.guard = parse_flag(name, text);
   else if (name == "uncertainty-fraction") p.uncertainty_fraction = number(1.0);
   else if (name == "min-interval") p.min_interval_s = number(3600.0);
-  else if (name == "max-interval") p.max_interval_s = number(3600.0);
+  else if (name == "max-interval") p.max_interval_s = number_or_inf(3600.0);
   else if (name == "plausible-lin") p.plausible_linear_um = number_or_inf(1.0);
   else if (name == "plausible-ang") p.plausible_angular_um_per_m = number_or_inf(1.0);
   else if (name == "plausible-temp") p.plausible_temperature_C = number_or_inf(1.0);

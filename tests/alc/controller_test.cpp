@@ -452,6 +452,17 @@ TEST_CASE("controller: invalid parameters are refused naming the field and value
   p = test_parameters();
   p.acl_linear_um = -1.0;
   CHECK_THROWS_WITH(Controller({"T"}, {"E_X0C"}, p), "acl_linear_um = -1: must be positive and finite");
+  // The adaptive schedule: a budget beyond the ACL and no maximum interval are valid, a non-positive
+  // budget and a maximum below the minimum are not.
+  p = test_parameters();
+  p.uncertainty_fraction = 2.0;
+  p.max_interval_s = kInf;
+  CHECK(p.validate().empty());
+  p.uncertainty_fraction = 0.0;
+  CHECK(p.validate() == "uncertainty_fraction = 0: must be positive and finite");
+  p.uncertainty_fraction = 0.5;
+  p.max_interval_s = 0.25 * kHour;
+  CHECK(p.validate() == "max_interval_s = 900: must not be below min_interval_s (inf: no bound)");
 }
 
 TEST_CASE("controller: bad samples and probes are rejected with a reason and change nothing") {

@@ -125,6 +125,17 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
 }
 
+TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {
+  const auto measured = [](const Run& r) {
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    return nlohmann::json::parse(r.out)["M"].get<int>();
+  };
+  const int bounded = measured(alc("replay --case A --schedule adaptive --json"));
+  const int loose = measured(alc("replay --case A --schedule adaptive --uncertainty-fraction 3 --max-interval inf --json"));
+  CHECK(loose < bounded);
+}
+
 TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {
   // Each of these ran (to the end, or at "-1 h", or as 16 h) before; now each is a usage error.
   const char* const refused[][2] = {
@@ -146,6 +157,10 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"study --case A --bench --bench-sample 5x", "--bench-sample: '5x' is not a whole number"},
       {"study --grid paper --case A --shard 0x1/2", "--shard: '0x1/2' is not I/N"},
       {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
+      {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number >= 0 or inf"},
+      // What the controller refuses is named by field and value, without an option's "--" before it.
+      {"replay --case A --uncertainty-fraction 0", "alc: error: invalid parameters: uncertainty_fraction = 0: must be positive"},
+      {"replay --case A --min-interval 2 --max-interval 1", "max_interval_s = 3600: must not be below min_interval_s"},
   };
   for (const auto& [args, message] : refused) {
     INFO(args);

@@ -127,6 +127,34 @@ TEST_CASE("schedule: the adaptive policy probes when the predicted sigma reaches
   CHECK(std::isinf(AdaptiveSchedule(never).next_due(c)));
 }
 
+TEST_CASE("schedule: the adaptive policy with a budget beyond the ACL and no maximum interval") {
+  AdaptiveScheduleOptions o = adaptive_options();
+  o.fraction = 2.0;
+  o.max_interval_s = kNever;
+  const AdaptiveSchedule s(o);
+  const std::vector<std::string> names = {"E_X0C"};
+  ScheduleContext c;
+  c.now_s = 1000.0;
+  c.phase = Phase::PostCalibration;
+  c.output_names = &names;
+  c.acl = Eigen::VectorXd::Constant(1, 5.0);
+  c.noise_var = Eigen::VectorXd::Constant(1, 0.25);
+  c.drift_rate = Eigen::VectorXd::Constant(1, 1e-3);
+  // (2 x 5)^2 - 0.25 = 99.75 µm² at 1e-3 µm²/s: 99750 s, no bound above.
+  CHECK(s.next_due(c) == Approx(1000.0 + 99750.0));
+  CHECK_THAT(s.explain(c), Catch::Contains("2.00 x its ACL 5") && Catch::Contains("27.71 h"));
+  // No drift and no move: no probe is due, and the reason says so instead of an infinite interval.
+  c.drift_rate = Eigen::VectorXd::Zero(1);
+  CHECK(std::isinf(s.next_due(c)));
+  CHECK_THAT(s.explain(c), Catch::Contains("no probe due") && !Catch::Contains("inf h"));
+  // A move of the prediction still brings it forward: with kappa 1 a move of 10 µm uses up the 99.75 µm².
+  c.kappa = Eigen::VectorXd::Constant(1, 1.0);
+  c.since_s = 1000.0;
+  c.now_s = 5000.0;
+  c.prediction_change = Eigen::VectorXd::Constant(1, 10.0);
+  CHECK(s.next_due(c) == Approx(1000.0 + o.min_interval_s));
+}
+
 TEST_CASE("schedule: the adaptive policy brings the probe forward when the prediction moves, within its bounds") {
   const AdaptiveScheduleOptions o = adaptive_options();
   const AdaptiveSchedule s(o);

@@ -110,15 +110,16 @@ class PaperSchedule : public SchedulePolicy {
 // Probe when the model is unsure (docs/adaptive.md): after CP, the next probe is due when the predicted
 // standard deviation of the compensated error of some output,
 //   sqrt(noise_var + drift_rate * dt + kappa * dy^2),   dt = now - since, dy = prediction change since,
-// reaches `fraction` x its ACL, within [min_interval_s, max_interval_s] after the decision. It is asked
+// reaches `fraction` x its ACL, within [min_interval_s, max_interval_s] after the decision (max inf: the
+// evidence alone; without drift and without a move of the prediction no probe is due then). It is asked
 // at every sample (checks_each_sample): a prediction that moves fast brings the probe forward. CP, the
 // NG burst and the breach confirmation are seed 004's (PaperSchedule); without evidence yet, the
 // Post-CP interval is the paper's.
 struct AdaptiveScheduleOptions {
   PaperScheduleOptions paper;
-  double fraction = 0.5;                   // [-] of the ACL
+  double fraction = 0.5;                   // [-] of the ACL (above 1: a budget beyond the ACL, for high Pd)
   double min_interval_s = 1800.0;          // [s]
-  double max_interval_s = 12 * 3600.0;     // [s]
+  double max_interval_s = 12 * 3600.0;     // [s] inf: no bound
 };
 
 class AdaptiveSchedule : public PaperSchedule {
