@@ -1,6 +1,7 @@
 #pragma once
 // Running the built `alc` program (ALC_CLI_PATH) from a test: its exit code, stdout and stderr,
-// and a scratch directory per test process (ctest -j and the sanitizer run must not share files).
+// and a scratch directory per test process (ctest -j and the sanitizer run must not share files),
+// removed when the process exits.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 #include <string>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 namespace alc_test {
 
@@ -25,10 +27,25 @@ inline std::string slurp(const std::filesystem::path& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-// <tmp>/alc_<tag>_<pid>, created on first use.
+// The work directories this test process made, removed with their files when it exits.
+struct WorkDirs {
+  std::vector<std::filesystem::path> made;
+  ~WorkDirs() {
+    for (const auto& dir : made) {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  }
+};
+inline WorkDirs& work_dirs() {
+  static WorkDirs dirs;
+  return dirs;
+}
+
+// <tmp>/alc_<tag>_<pid>, created on first use and removed when the test process exits.
 inline std::filesystem::path work_dir(const std::string& tag) {
   const auto dir = std::filesystem::temp_directory_path() / ("alc_" + tag + "_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  if (std::filesystem::create_directories(dir)) work_dirs().made.push_back(dir);
   return dir;
 }
 

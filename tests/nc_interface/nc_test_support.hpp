@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,7 @@
 #include <unistd.h>
 #include <vector>
 
+#include "../cli_support.hpp"
 #include "nc_interface/commands.hpp"
 #include "nc_interface/jsonl.hpp"
 
@@ -67,11 +69,14 @@ inline void write_text(const std::filesystem::path& path, const std::string& tex
   out << text;
 }
 
-// A fresh, empty directory under the system temp dir, named after the test.
+// A fresh, empty directory under the system temp dir, named after the test (removed when the test
+// process exits, as alc_test::work_dir's).
 inline std::filesystem::path fresh_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("alc_nc_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  auto& made = alc_test::work_dirs().made;
+  if (std::find(made.begin(), made.end(), dir) == made.end()) made.push_back(dir);
   return dir;
 }
 

@@ -5,8 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <string>
+#include <vector>
 
 #include "../cli_support.hpp"
 #include "report/run_data.hpp"
@@ -19,15 +19,33 @@ using namespace alc::report;
 
 namespace {
 
+// Each text between `open` and the next `close` in `text`, in order (plain search: GCC 12's <regex> warns
+// under the sanitizer build).
+std::vector<std::string> between(const std::string& text, const std::string& open, const std::string& close) {
+  std::vector<std::string> out;
+  for (auto at = text.find(open); at != std::string::npos; at = text.find(open, at)) {
+    const auto from = at + open.size();
+    const auto to = text.find(close, from);
+    if (to == std::string::npos) break;
+    out.push_back(text.substr(from, to - from));
+    at = to + close.size();
+  }
+  return out;
+}
+
 // The indicators of the first run of a page, read back from its table and summary line (each number's
 // exact value is its cell's data-value): {"source": "replay"|"probes", "summary": {key: value},
 // "outputs": {name: {key: value}}, "order": [the rows' outputs]}.
 nlohmann::json page_indicators(const std::string& html) {
   nlohmann::json j = {{"summary", nlohmann::json::object()}, {"outputs", nlohmann::json::object()}};
-  const std::regex pair("data-key=\"([^\"]+)\" data-value=\"([^\"]*)\"");
+  // data-key="KEY" data-value="VALUE": KEY" data-value="VALUE between data-key=" and the next quote after it.
   const auto pairs = [&](const std::string& text, nlohmann::json& into) {
-    for (std::sregex_iterator it(text.begin(), text.end(), pair), end; it != end; ++it)
-      into[(*it)[1].str()] = nlohmann::json::parse((*it)[2].str());
+    const std::string separator = "\" data-value=\"";
+    for (const std::string& cell : between(text, "data-key=\"", "\">")) {
+      const auto at = cell.find(separator);
+      REQUIRE(at != std::string::npos);
+      into[cell.substr(0, at)] = nlohmann::json::parse(cell.substr(at + separator.size()));
+    }
   };
   const auto summary_at = html.find("<p class=\"summary\" data-indicators=\"");
   REQUIRE(summary_at != std::string::npos);
@@ -37,10 +55,12 @@ nlohmann::json page_indicators(const std::string& html) {
   const auto table_at = html.find("<table class=\"indicators\"");
   REQUIRE(table_at != std::string::npos);
   const std::string table = html.substr(table_at, html.find("</table>", table_at) - table_at);
-  const std::regex row("<tr data-output=\"([^\"]+)\">(.*?)</tr>");
-  for (std::sregex_iterator it(table.begin(), table.end(), row), end; it != end; ++it) {
-    pairs((*it)[2].str(), j["outputs"][(*it)[1].str()]);
-    j["order"].push_back((*it)[1].str());
+  for (const std::string& row : between(table, "<tr data-output=\"", "</tr>")) {
+    const auto name_end = row.find("\">");
+    REQUIRE(name_end != std::string::npos);
+    const std::string name = row.substr(0, name_end);
+    pairs(row.substr(name_end + 2), j["outputs"][name]);
+    j["order"].push_back(name);
   }
   return j;
 }
