@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <initializer_list>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -369,10 +370,18 @@ void add_replay_command(CLI::App& app) {
                   "Post-CP probing: paper (seed 004's fixed interval) or adaptive (probe when the predicted "
                   "uncertainty of the compensated error reaches --uncertainty-fraction x ACL; docs/adaptive.md)")
       ->capture_default_str();
-  cmd->add_option("--uncertainty-fraction", args->uncertainty_fraction, "Adaptive: fraction of the ACL, (0, 1]")
-      ->capture_default_str();
-  cmd->add_option("--min-interval", args->min_interval, "Adaptive: shortest Post-CP interval [h]")->capture_default_str();
-  cmd->add_option("--max-interval", args->max_interval, "Adaptive: longest Post-CP interval [h]")->capture_default_str();
+  // The adaptive schedule's and the plausibility limits' options: the help texts of the one option table
+  // (runtime/parameter_options.cpp).
+  const auto add_table_options = [&](std::initializer_list<std::pair<const char*, std::string*>> options) {
+    for (const auto& [name, value] : options) {
+      const runtime::ParameterOption* o = runtime::find_parameter_option(name);
+      const std::string unit = o->unit == "-" ? "" : " [" + std::string(o->unit) + "]";
+      cmd->add_option("--" + std::string(name), *value, std::string(o->help) + unit)->capture_default_str();
+    }
+  };
+  add_table_options({{"uncertainty-fraction", &args->uncertainty_fraction},
+                     {"min-interval", &args->min_interval},
+                     {"max-interval", &args->max_interval}});
   auto* guard = cmd->add_flag("--guard", args->guard, "The guard, on by default (kept for older command lines)");
   cmd->add_flag("--no-guard", args->no_guard,
                 "Compensate with the model's prediction as it is. By default a guard backs compensation off per "
@@ -380,17 +389,11 @@ void add_replay_command(CLI::App& app) {
                 "recent probes, and compensates nothing while the prediction leaves the range of the measured "
                 "errors (docs/adaptive.md)")
       ->excludes(guard);
-  // The plausibility limits: the help texts of the one option table (runtime/parameter_options.cpp).
-  const std::pair<const char*, std::string*> plausible[] = {{"plausible-lin", &args->plausible_lin},
-                                                            {"plausible-ang", &args->plausible_ang},
-                                                            {"plausible-temp", &args->plausible_temp},
-                                                            {"plausible-speed", &args->plausible_speed},
-                                                            {"plausible-other", &args->plausible_other}};
-  for (const auto& [name, value] : plausible) {
-    const runtime::ParameterOption* o = runtime::find_parameter_option(name);
-    const std::string unit = o->unit == "-" ? "" : " [" + std::string(o->unit) + "]";
-    cmd->add_option("--" + std::string(name), *value, std::string(o->help) + unit)->capture_default_str();
-  }
+  add_table_options({{"plausible-lin", &args->plausible_lin},
+                     {"plausible-ang", &args->plausible_ang},
+                     {"plausible-temp", &args->plausible_temp},
+                     {"plausible-speed", &args->plausible_speed},
+                     {"plausible-other", &args->plausible_other}});
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
   add_number_option(cmd, "--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)",

@@ -47,14 +47,15 @@ def rows(path):
 
 
 def pooled(by_case, keys):
-    """One point per set that ran on every recording of `keys`: its mean P99 and mean Pd over them."""
-    sums = defaultdict(lambda: [0.0, 0.0, 0])
+    """One point per set that ran (status ok) on every recording of `keys`: its mean P99 and mean Pd over
+    them; and how many sets are left out because they did not."""
+    runs = defaultdict(dict)
     for k in keys:
         for p99, pd, s in by_case.get(k, []):
-            sums[s][0] += p99
-            sums[s][1] += pd
-            sums[s][2] += 1
-    return [(p / n, d / n, s) for s, (p, d, n) in sums.items() if n == len(keys)]
+            runs[s][k] = (p99, pd)
+    points = [(sum(p for p, _ in r.values()) / len(keys), sum(d for _, d in r.values()) / len(keys), s)
+              for s, r in runs.items() if len(r) == len(keys)]
+    return points, len(runs) - len(points)
 
 
 def groups(keys):
@@ -168,8 +169,13 @@ def main():
           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
           f"{lb} / {la} / equal |")
     print("| --- | --- | --- | --- | --- | --- |")
-    for name, ks in groups(keys):
-        fa, fb = front(pooled(ra, ks)), front(pooled(rb, ks))
+    # The recordings both files have (a recording in one file only would empty the other's pooled front).
+    left_out = defaultdict(int)
+    for name, ks in groups([k for k in keys if k in ra and k in rb]):
+        (pa, oa), (pb, ob) = pooled(ra, ks), pooled(rb, ks)
+        left_out[la] = max(left_out[la], oa)
+        left_out[lb] = max(left_out[lb], ob)
+        fa, fb = front(pa), front(pb)
         da = sum(any(dominates(q, p) for q in fb) for p in fa)
         db = sum(any(dominates(q, p) for q in fa) for p in fb)
         ranges = crossings(fa, fb)
@@ -177,6 +183,9 @@ def main():
         total = wa + wb + we
         share = f"{100 * wb / total:.1f} / {100 * wa / total:.1f} / {100 * we / total:.1f} %" if total else "—"
         print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} |")
+    for label, n in left_out.items():
+        if n:
+            print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")
     if args.fronts:
         print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")
         show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr)

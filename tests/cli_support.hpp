@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -37,15 +38,17 @@ struct WorkDirs {
     }
   }
 };
-inline WorkDirs& work_dirs() {
+// `dir` (made by this process) is removed when the process exits.
+inline void remove_at_exit(const std::filesystem::path& dir) {
   static WorkDirs dirs;
-  return dirs;
+  if (std::find(dirs.made.begin(), dirs.made.end(), dir) == dirs.made.end()) dirs.made.push_back(dir);
 }
 
 // <tmp>/alc_<tag>_<pid>, created on first use and removed when the test process exits.
 inline std::filesystem::path work_dir(const std::string& tag) {
   const auto dir = std::filesystem::temp_directory_path() / ("alc_" + tag + "_" + std::to_string(::getpid()));
-  if (std::filesystem::create_directories(dir)) work_dirs().made.push_back(dir);
+  std::filesystem::create_directories(dir);  // (one left by a crashed process of the same pid is ours now)
+  remove_at_exit(dir);
   return dir;
 }
 

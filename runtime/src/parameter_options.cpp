@@ -48,7 +48,8 @@ const std::vector<ParameterOption>& parameter_options() {
       {"schedule", "-", "paper or adaptive", "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
        Stage::CpEnd},
       {"uncertainty-fraction", "-", "a number > 0",
-       "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL", Stage::CpEnd},
+       "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL (above 1: a budget "
+       "beyond the ACL)", Stage::CpEnd},
       {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
       {"max-interval", "h", kNumberOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
        Stage::CpEnd},

@@ -9,24 +9,21 @@
 #include <string>
 #include <string_view>
 
+#include "../cli_support.hpp"
 #include "common/log.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
+// A file `name` in this process's scratch directory (removed at exit), not there yet.
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("alc_log_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = alc_test::work_dir("log_test") / name;
   fs::remove(p);
   return p;
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using alc_test::slurp;
 
 alc::log::Options to_file(const fs::path& file, spdlog::level::level_enum level) {
   alc::log::Options o;

@@ -3,7 +3,6 @@
 #include <catch2/catch.hpp>
 #include <sys/wait.h>
 
-#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -75,8 +74,7 @@ inline std::filesystem::path fresh_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("alc_nc_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  auto& made = alc_test::work_dirs().made;
-  if (std::find(made.begin(), made.end(), dir) == made.end()) made.push_back(dir);
+  alc_test::remove_at_exit(dir);
   return dir;
 }
 

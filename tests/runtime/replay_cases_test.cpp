@@ -133,13 +133,20 @@ TEST_CASE("load case A with the adaptive schedule: a run stopped and resumed fro
   AlcParameters p;
   p.schedule_kind = AlcParameters::Schedule::Adaptive;
   p.min_interval_s = 0.25 * 3600.0;
+  // Also with a budget beyond the ACL and no maximum interval (the loosest policy of the study grid).
+  const bool loose = GENERATE(false, true);
+  if (loose) {
+    p.uncertainty_fraction = 3.0;
+    p.max_interval_s = kInf;
+  }
+  INFO((loose ? "fraction 3, no maximum interval" : "fraction 0.5, maximum 12 h"));
   Replay uninterrupted(simulated.scenario, in_memory(p));
   uninterrupted.run();
   const ReplayReport whole = uninterrupted.report();
   const ControllerState& end = uninterrupted.controller().state();
   REQUIRE((end.kappa.array() > 0.0).any());  // the prediction's change is part of the evidence on A
   for (double stop_h : {7.0, 40.5, 150.0}) {
-    const auto second = stopped_and_resumed(simulated.scenario, p, "cases-A-adaptive", stop_h);
+    const auto second = stopped_and_resumed(simulated.scenario, p, loose ? "cases-A-loose" : "cases-A-adaptive", stop_h);
     const ReplayReport r = second->report();
     INFO("stopped at " << stop_h << " h");
     CHECK(r.M == whole.M);
