@@ -88,10 +88,10 @@ AlcParameters parameters_from(const ReplayArgs& a) {
   if (!a.since.empty()) o.emplace_back("since", a.since);
   try {
     return runtime::parameters_of(o);
+  } catch (const runtime::InvalidParameters& e) {
+    throw UsageError(e.what());  // the controller's constraint, no option to name
   } catch (const std::invalid_argument& e) {
-    // An option's text names the option ("max-interval: ..."); a combination the controller refuses does not.
-    const std::string what = e.what();
-    throw UsageError(what.rfind("invalid parameters", 0) == 0 ? what : "--" + what);
+    throw UsageError(std::string("--") + e.what());  // "max-interval: ..." names the option
   }
 }
 

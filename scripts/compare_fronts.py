@@ -119,6 +119,15 @@ def crossings(fa, fb):
     return out
 
 
+def duel(fa, fb):
+    """How fronts A and B compare: points of A dominated by B, of B by A, and per winner ('a', 'b', '=')
+    the width and the text of the Pd ranges where it has the lower P99."""
+    da = sum(any(dominates(q, p) for q in fb) for p in fa)
+    db = sum(any(dominates(q, p) for q in fa) for p in fb)
+    ranges = crossings(fa, fb)
+    return da, db, {who: describe(ranges, who) for who in ("a", "b", "=")}
+
+
 def describe(ranges, who):
     spans = [(lo, hi) for lo, hi, w in ranges if w == who]
     width = sum(hi - lo + 0.01 for lo, hi in spans)
@@ -146,16 +155,12 @@ def main():
     wins = defaultdict(float)
     for k in keys:
         fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
-        da = sum(any(dominates(q, p) for q in fb) for p in fa)
-        db = sum(any(dominates(q, p) for q in fa) for p in fb)
+        da, db, won = duel(fa, fb)
         floor = min([d for _, d, _ in fa + fb], default=95.0)
         limit = 2.5 * min([p for p, _, _ in fa + fb], default=2.0)
-        ranges = crossings(fa, fb)
-        wb, tb = describe(ranges, "b")
-        wa, ta = describe(ranges, "a")
-        wins["a"] += wa
-        wins["b"] += wb
-        wins["="] += describe(ranges, "=")[0]
+        (wa, ta), (wb, tb) = won["a"], won["b"]
+        for who in won:
+            wins[who] += won[who][0]
         name = k[0] if k[1] == "own" else f"{k[0]} {k[1]}"
         print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
               f"{area(fb, floor, limit):.2f} | {tb} | {ta} |")
@@ -176,10 +181,8 @@ def main():
         left_out[la] = max(left_out[la], oa)
         left_out[lb] = max(left_out[lb], ob)
         fa, fb = front(pa), front(pb)
-        da = sum(any(dominates(q, p) for q in fb) for p in fa)
-        db = sum(any(dominates(q, p) for q in fa) for p in fb)
-        ranges = crossings(fa, fb)
-        (wb, tb), (wa, ta), (we, _) = describe(ranges, "b"), describe(ranges, "a"), describe(ranges, "=")
+        da, db, won = duel(fa, fb)
+        (wa, ta), (wb, tb), (we, _) = won["a"], won["b"], won["="]
         total = wa + wb + we
         share = f"{100 * wb / total:.1f} / {100 * wa / total:.1f} / {100 * we / total:.1f} %" if total else "—"
         print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} |")

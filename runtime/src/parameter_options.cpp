@@ -127,7 +127,7 @@ AlcParameters parameters_of(const OptionTexts& options) {
   for (const auto& [name, text] : options) set_parameter(p, name, text);
   // Without refits on probes a breach cannot be confirmed: the paper's literal loop.
   if (!p.refit_on_probe) p.confirm_breach = false;
-  if (const std::string why = p.validate(); !why.empty()) throw std::invalid_argument("invalid parameters: " + why);
+  if (const std::string why = p.validate(); !why.empty()) throw InvalidParameters("invalid parameters: " + why);
   return p;
 }
 

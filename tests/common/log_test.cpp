@@ -1,10 +1,7 @@
 // alc::log: one logger per component, all on the configured sinks (stderr, rotating file).
 #include <catch2/catch.hpp>
-#include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <string_view>

@@ -6,6 +6,7 @@
 // that agree on the earlier stages as one controller and forks it where they first differ
 // (docs/study.md). The stages follow the controller (alc/src/controller.cpp): the Post-CP options are
 // consulted only once CP ends, the No-Good options only at the first ACL breach after CP.
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -40,8 +41,14 @@ using OptionTexts = std::vector<std::pair<std::string, std::string>>;
 // nan; "inf" where the option takes it). Throws std::invalid_argument naming the option and the value.
 void set_parameter(AlcParameters& p, std::string_view name, std::string_view text);
 
+// A combination of valid option values that the controller refuses (AlcParameters::validate()).
+struct InvalidParameters : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
 // The parameters of the defaults with `options` applied, validated (p.validate()). Throws
-// std::invalid_argument naming the option and the value, or the violated constraint.
+// std::invalid_argument naming the option and the value, or InvalidParameters naming the violated
+// constraint ("invalid parameters: ...").
 AlcParameters parameters_of(const OptionTexts& options);
 
 }  // namespace alc::runtime
