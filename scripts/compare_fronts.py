@@ -36,13 +36,24 @@ def case_key(name):
 
 
 def rows(path):
+    """Per recording, (P99, Pd, set) of the rows that ran. A set is named by its parameter values (the
+    columns between `case` and `status`), not by its number, so that the rows of several grids (whose
+    numbers start at 1 each) can share one file."""
     by_case = defaultdict(list)
     with open(path, newline="") as f:
-        for r in csv.DictReader(f):
+        reader = csv.reader(f)
+        header = next(reader)
+        col = {name: i for i, name in enumerate(header)}
+        params = header[col["case"] + 1:col["status"]]
+        for row in reader:
+            if row == header:
+                continue
+            r = dict(zip(header, row))
             if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
                 continue
             k = case_key(r["case"])
-            by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), r["set"]))
+            name = " ".join(f"{p}={r[p]}" for p in params)
+            by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), name))
     return by_case
 
 

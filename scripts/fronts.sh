@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Regenerates the Pareto fronts of docs/adaptive.md ("Judged on the Pareto front") in one command:
-# the paper-schedule and adaptive-schedule studies (docs/grids-*.toml) on every case (A-D, S16,
-# H1-H5) at their own seeds and at the seeds in SEEDS (default "2 3", recordings made with
-# `alc simulate --case X --seed S`), then the comparison table and one SVG per seed.
+# the paper-schedule and adaptive-schedule studies (docs/grids-{paper,adaptive}-schedule*.toml, every
+# file of a schedule) on every case (A-D, S16, H1-H5) at their own seeds and at the seeds in SEEDS
+# (default "2 3", recordings made with `alc simulate --case X --seed S`), then the comparison table
+# and one SVG per seed.
 #
 # usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2 in the environment)
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg
@@ -23,9 +24,11 @@ for s in $seeds; do
   done
 done
 for g in paper adaptive; do
-  grid="$here/docs/grids-$g-schedule.toml"
   rm -f "$out/$g.csv"
   part=0
+  # Every grid file of the schedule (docs/grids-adaptive-schedule.toml and -rare.toml: the same keys in
+  # the same order, so their rows share one file; compare_fronts.py names a set by its values).
+  for grid in "$here"/docs/grids-$g-schedule*.toml; do
   # The cases at their own seeds, then each other seed's recordings (the case column names the file).
   for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
     part=$((part + 1))
@@ -39,8 +42,16 @@ for g in paper adaptive; do
       # shellcheck disable=SC2086
       "$alc" study --grid "$grid" $what --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
     fi
-    if [ -s "$out/$g.csv" ]; then tail -n +2 "$out/$g.$part.csv" >> "$out/$g.csv"; else cp "$out/$g.$part.csv" "$out/$g.csv"; fi
+    if [ ! -s "$out/$g.csv" ]; then
+      cp "$out/$g.$part.csv" "$out/$g.csv"
+    elif [ "$(head -1 "$out/$g.$part.csv" | cut -d, -f1-8)" != "$(head -1 "$out/$g.csv" | cut -d, -f1-8)" ]; then
+      echo "fronts.sh: $grid: its keys differ from the first grid of $g (${grid##*/}); give every grid of a schedule the same keys" >&2
+      exit 2
+    else
+      tail -n +2 "$out/$g.$part.csv" >> "$out/$g.csv"
+    fi
     rm -f "$out/$g.$part.csv"
+  done
   done
 done
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
