@@ -45,6 +45,7 @@ def rows(path):
         header = next(reader)
         col = {name: i for i, name in enumerate(header)}
         params = header[col["case"] + 1:col["status"]]
+        seen = set()
         for row in reader:
             if row == header:
                 continue
@@ -53,6 +54,9 @@ def rows(path):
                 continue
             k = case_key(r["case"])
             name = " ".join(f"{p}={r[p]}" for p in params)
+            if (k, name) in seen:
+                raise SystemExit(f"{path}: the set {name} ran twice on {r['case']} (two grids with the same values?)")
+            seen.add((k, name))
             by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), name))
     return by_case
 

@@ -29,29 +29,30 @@ for g in paper adaptive; do
   # Every grid file of the schedule (docs/grids-adaptive-schedule.toml and -rare.toml: the same keys in
   # the same order, so their rows share one file; compare_fronts.py names a set by its values).
   for grid in "$here"/docs/grids-$g-schedule*.toml; do
-  # The cases at their own seeds, then each other seed's recordings (the case column names the file).
-  for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
-    part=$((part + 1))
-    if [[ $what == seed:* ]]; then
-      s=${what#seed:}
-      files=()
-      for c in $cases; do files+=("$out/recordings/$c seed $s.csv"); done
-      (cd "$out/recordings" && "$alc" study --grid "$grid" --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" \
-        "${files[@]##*/}" > /dev/null)
-    else
-      # shellcheck disable=SC2086
-      "$alc" study --grid "$grid" $what --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
-    fi
-    if [ ! -s "$out/$g.csv" ]; then
-      cp "$out/$g.$part.csv" "$out/$g.csv"
-    elif [ "$(head -1 "$out/$g.$part.csv" | cut -d, -f1-8)" != "$(head -1 "$out/$g.csv" | cut -d, -f1-8)" ]; then
-      echo "fronts.sh: $grid: its keys differ from the first grid of $g (${grid##*/}); give every grid of a schedule the same keys" >&2
-      exit 2
-    else
-      tail -n +2 "$out/$g.$part.csv" >> "$out/$g.csv"
-    fi
-    rm -f "$out/$g.$part.csv"
-  done
+    # The cases at their own seeds, then each other seed's recordings (the case column names the file).
+    for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
+      part=$((part + 1))
+      if [[ $what == seed:* ]]; then
+        s=${what#seed:}
+        files=()
+        for c in $cases; do files+=("$out/recordings/$c seed $s.csv"); done
+        (cd "$out/recordings" && "$alc" study --grid "$grid" --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" \
+          "${files[@]##*/}" > /dev/null)
+      else
+        # shellcheck disable=SC2086
+        "$alc" study --grid "$grid" $what --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
+      fi
+      if [ ! -s "$out/$g.csv" ]; then
+        cp "$out/$g.$part.csv" "$out/$g.csv"
+        first=${grid##*/}
+      elif [ "$(head -1 "$out/$g.$part.csv" | sed 's/,status,.*//')" != "$(head -1 "$out/$g.csv" | sed 's/,status,.*//')" ]; then
+        echo "fronts.sh: ${grid##*/}: its keys differ from those of $first; give every grid of a schedule the same keys" >&2
+        exit 2
+      else
+        tail -n +2 "$out/$g.$part.csv" >> "$out/$g.csv"
+      fi
+      rm -f "$out/$g.$part.csv"
+    done
   done
 done
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
