@@ -64,6 +64,7 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   if (s.error_low.size() != n) s.error_low = Eigen::VectorXd::Constant(n, kInf);
   if (s.error_high.size() != n) s.error_high = Eigen::VectorXd::Constant(n, -kInf);
   if (s.guard_off_range.size() != n) s.guard_off_range = Eigen::VectorXd::Zero(n);
+  if (s.guard_held.size() != n) s.guard_held = Eigen::VectorXd::Zero(n);
 }
 
 std::string AlcParameters::validate() const {
@@ -297,6 +298,12 @@ constexpr double kGuardDecay = 0.95;
 constexpr int kGuardMinProbes = 12;
 constexpr double kGuardStep = 0.1;
 constexpr double kRangeMargin = 1.0;
+// The drift bound: compensation stays within the latest probe's thermal error +- kDriftFactor x the
+// fastest rate of change measured between two probes at least kDriftSpan apart x the time since it.
+// Over a span s a sinusoidal error's change is sinc(pi s / period) of its fastest rate: with 2 x and
+// 1 h the bound follows any error whose period is 1.66 h or longer at full speed (docs/adaptive.md).
+constexpr double kDriftFactor = 2.0;
+constexpr double kDriftSpan_s = 1.0 * 3600.0;
 
 std::pair<double, double> Controller::guard_range(Eigen::Index i) const {
   if (!(state_.error_low(i) <= state_.error_high(i))) return {-kInf, kInf};
@@ -319,10 +326,47 @@ ControllerEvent Controller::guard_event(double time_s, Eigen::Index output, doub
   return e;
 }
 
-Eigen::VectorXd Controller::compensated() const {
+Controller::DriftBound Controller::drift_bound(Eigen::Index i, double time_s) const {
+  // The latest probe that measured output i, and per probe j the change from the latest probe at
+  // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift).
+  DriftBound b;
+  const std::vector<ProbeRecord>& probes = state_.probes;
+  double anchor_s = std::numeric_limits<double>::quiet_NaN();
+  bool has_rate = false;
+  std::size_t before = 0;  // the last probe at least kDriftSpan_s before probe j
+  for (std::size_t j = 0; j < probes.size(); ++j) {
+    const double u = probes[j].errors(i);
+    if (std::isnan(u)) continue;
+    b.anchor = u;
+    anchor_s = probes[j].time_s;
+    while (before + 1 < j && probes[j].time_s - probes[before + 1].time_s >= kDriftSpan_s) ++before;
+    if (probes[j].time_s - probes[before].time_s < kDriftSpan_s) continue;
+    for (std::size_t k = before + 1; k-- > 0;) {
+      if (std::isnan(probes[k].errors(i))) continue;
+      b.rate = std::max(b.rate, std::abs(u - probes[k].errors(i)) / (probes[j].time_s - probes[k].time_s));
+      has_rate = true;
+      break;
+    }
+  }
+  if (!has_rate) return b;
+  const double reach = kDriftFactor * b.rate * std::max(0.0, time_s - anchor_s);
+  b.low = b.anchor - reach;
+  b.high = b.anchor + reach;
+  return b;
+}
+
+Eigen::VectorXd Controller::compensated(double time_s) const {
   Eigen::VectorXd c = state_.prediction;
   if (!params_.guard || !state_.has_model) return c;
-  for (Eigen::Index i = 0; i < c.size(); ++i) c(i) = state_.guard_off_range(i) != 0.0 ? 0.0 : c(i) * state_.guard_gain(i);
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
+    if (state_.guard_off_range(i) != 0.0) {
+      c(i) = 0.0;
+      continue;
+    }
+    c(i) *= state_.guard_gain(i);
+    const DriftBound b = drift_bound(i, time_s);
+    c(i) = std::clamp(c(i), b.low, b.high);
+  }
   return c;
 }
 
@@ -332,17 +376,35 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const double p = state_.prediction(i);
       const auto [lo, hi] = guard_range(i);
       const bool off = !(p >= lo && p <= hi);
-      if (off == (state_.guard_off_range(i) != 0.0)) continue;
-      state_.guard_off_range(i) = off ? 1.0 : 0.0;
+      if (off != (state_.guard_off_range(i) != 0.0)) {
+        state_.guard_off_range(i) = off ? 1.0 : 0.0;
+        std::ostringstream why;
+        if (off)
+          why << "compensation off: the prediction " << p << " left the range of the measured errors widened to ["
+              << lo << ", " << hi << "]";
+        else
+          why << "compensation on again: the prediction " << p << " is back within [" << lo << ", " << hi << "]";
+        out.events.push_back(guard_event(time_s, i, p, p > hi ? hi : lo, why.str()));
+      }
+      // The drift bound: an event when it starts or stops holding the compensation back by more than the
+      // ACL (right after every probe it holds a little: compensation starts from the error measured).
+      const double g = off ? 0.0 : p * state_.guard_gain(i);
+      const DriftBound b = drift_bound(i, time_s);
+      const double acl = acl_of(static_cast<std::size_t>(i));
+      const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);
+      if (held == (state_.guard_held(i) != 0.0)) continue;
+      state_.guard_held(i) = held ? 1.0 : 0.0;
       std::ostringstream why;
-      if (off)
-        why << "compensation off: the prediction " << p << " left the range of the measured errors widened to [" << lo
-            << ", " << hi << "]";
+      if (held)
+        why << "compensation held to [" << b.low << ", " << b.high << "]: the prediction " << g
+            << " moves away from the latest probe's error " << b.anchor << " faster than " << kDriftFactor
+            << " x the fastest drift the probes measured (" << b.rate * 3600.0 << " per h)";
       else
-        why << "compensation on again: the prediction " << p << " is back within [" << lo << ", " << hi << "]";
-      out.events.push_back(guard_event(time_s, i, p, p > hi ? hi : lo, why.str()));
+        why << "compensation held no more than the ACL: the prediction " << g << ", the bound [" << b.low << ", "
+            << b.high << "]";
+      out.events.push_back(guard_event(time_s, i, g, g > b.high ? b.high : b.low, why.str()));
     }
-  return compensated();
+  return compensated(time_s);
 }
 
 void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
@@ -458,7 +520,7 @@ ControllerOutput Controller::rejected(std::string reason) const {
   ControllerOutput out;
   out.accepted = false;
   out.reason = std::move(reason);
-  out.prediction = compensated();
+  out.prediction = compensated(state_.now_s);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }

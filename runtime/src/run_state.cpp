@@ -60,6 +60,8 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.f64(c.schedule_since_s);
   e.vector(c.schedule_prediction);
   e.matrix(c.schedule_sums);
+  // Version 7: which outputs the guard's drift bound holds back.
+  e.vector(c.guard_held);
 }
 
 ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
@@ -133,6 +135,7 @@ ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
     c.schedule_prediction = d.vector("schedule_prediction");
     c.schedule_sums = d.matrix("schedule_sums");
   }  // before: the controller starts them (init_evidence): kappa 0, the change from the last probe on
+  if (version >= 7) c.guard_held = d.vector("guard_held");  // before: none held (init_evidence)
   return c;
 }
 

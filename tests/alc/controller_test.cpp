@@ -778,6 +778,9 @@ TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gai
   }
 }
 
+// An event of the guard's drift bound (its own test below).
+bool is_drift_bound(const ControllerEvent& e) { return e.reason.rfind("guard: compensation held", 0) == 0; }
+
 // The errors vanish from 2 h on while no identification succeeds any more (the model stays): the
 // model's predictions are wrong, no compensation would be right.
 Driver wrong_model(bool guard) {
@@ -811,8 +814,12 @@ TEST_CASE("controller: the guard backs compensation off where the model does wor
     INFO("guard " << guard);
     if (guard) {
       REQUIRE_FALSE(guards.empty());
-      // Each change of the gain is an event with the recent RMS without and with the prediction.
+      // Each change of the gain is an event with the recent RMS without and with the prediction; the
+      // drift bound (its own test below) holds the wrong prediction back too, with its own events.
+      int gains = 0;
       for (const auto& e : guards) {
+        if (is_drift_bound(e)) continue;
+        ++gains;
         CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation gain") && Catch::Contains("uncompensated"));
         CHECK((e.output == "E_X0C" || e.output == "E_A0C"));
         CHECK(e.from == e.to);
@@ -821,6 +828,7 @@ TEST_CASE("controller: the guard backs compensation off where the model does wor
         CHECK(e.value < e.limit);  // only down here: the model never gets better
         CHECK(e.value >= 0.0);
       }
+      CHECK(gains > 0);
       CHECK((d.controller.state().guard_gain.array() == 0.0).all());
       CHECK(out.prediction.isZero());
       CHECK_FALSE(model.isZero());
@@ -860,7 +868,7 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     d.t += kMinute;
     const ControllerOutput out = d.controller.on_sample(d.t, hot);
     for (const auto& e : out.events)
-      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C" && !is_drift_bound(e)) {
         CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation off") && Catch::Contains("left the range"));
         CHECK(e.time_s == d.t);
         CHECK(e.from == d.controller.phase());
@@ -882,11 +890,17 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     d.plant.advance(d.t);
     const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
     for (const auto& e : out.events)
-      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C" && !is_drift_bound(e)) {
         CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation on again"));
         CHECK(e.limit <= e.value);  // back within the range: above its lower bound
         on = true;
-        CHECK(out.prediction(0) == d.controller.state().prediction(0) * d.controller.state().guard_gain(0));
+        // Compensated again: the prediction with its gain, within the drift bound around the latest probe's
+        // error (test below), i.e. between that error and the prediction.
+        const double g = d.controller.state().prediction(0) * d.controller.state().guard_gain(0);
+        const double anchor = d.controller.state().probes.back().errors(0);
+        CHECK(out.prediction(0) >= std::min(g, anchor));
+        CHECK(out.prediction(0) <= std::max(g, anchor));
+        CHECK(out.prediction(0) != 0.0);
       }
   }
   CHECK(on);
@@ -899,6 +913,87 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
   for (int i = 0; i < 120; ++i) out = u.controller.on_sample(u.t += kMinute, hot);
   CHECK(out.prediction(0) == u.controller.state().prediction(0));
   CHECK(out.prediction(0) > high);
+}
+
+// The fastest |change| of output 0's error between two probes at least `span_s` apart, each probe
+// paired with the latest one that far before it (the rule of docs/adaptive.md, recomputed here).
+double fastest_drift(const ControllerState& s, double span_s) {
+  double rate = 0.0;
+  for (std::size_t j = 0; j < s.probes.size(); ++j)
+    for (std::size_t k = j; k-- > 0;)
+      if (s.probes[j].time_s - s.probes[k].time_s >= span_s) {
+        rate = std::max(rate, std::abs(s.probes[j].errors(0) - s.probes[k].errors(0)) /
+                                  (s.probes[j].time_s - s.probes[k].time_s));
+        break;
+      }
+  return rate;
+}
+
+TEST_CASE("controller: the guard holds compensation within the drift the probes have measured") {
+  for (const bool guard : {true, false}) {
+    AlcParameters p = test_parameters();
+    p.guard = guard;
+    p.acl_linear_um = 2.0;  // the model explains this plant: no breach, and a hold beyond 2 µm is an event
+    Driver d(p);
+    d.run_until(6 * kHour + kMinute);  // just after the probe at 6 h
+    REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());
+    const ControllerState before = d.controller.state();
+    REQUIRE(before.probes.back().time_s == 6 * kHour);
+    const double anchor = before.probes.back().errors(0);
+    const double anchor_s = before.probes.back().time_s;
+    const double rate = fastest_drift(before, 1 * kHour);  // probes at least 1 h apart
+    REQUIRE(rate > 0.0);
+    // 3 K above the warmest hour of the run, for 2 h without a probe: the prediction leaves the latest
+    // probe's error far faster than any drift measured, but stays within the measured range.
+    Eigen::VectorXd warm(2);
+    warm << 25.0, 500.0;
+    int held = 0, events = 0;
+    for (int i = 0; i < 120; ++i) {
+      d.t += kMinute;
+      const ControllerOutput out = d.controller.on_sample(d.t, warm);
+      const ControllerState& s = d.controller.state();
+      INFO("guard " << guard << ", t = " << d.t / kHour << " h");
+      REQUIRE(s.guard_off_range(0) == 0.0);  // the range's switch is not what acts here
+      const double g = s.prediction(0) * s.guard_gain(0);
+      if (!guard) {
+        CHECK(out.prediction(0) == s.prediction(0));
+        continue;
+      }
+      // Within the latest probe's error +- 2 x the fastest drift x the time since, as near g as that allows.
+      const double reach = 2.0 * rate * (d.t - anchor_s);
+      CHECK(out.prediction(0) >= anchor - reach - 1e-9);
+      CHECK(out.prediction(0) <= anchor + reach + 1e-9);
+      if (out.prediction(0) != g) {
+        ++held;
+        CHECK(std::abs(std::abs(out.prediction(0) - anchor) - reach) < 1e-9);  // held at the bound's edge
+      }
+      for (const auto& e : out.events)
+        if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+          // First the hold starts (held back by more than the ACL), then, as the bound widens with the
+          // time since the probe, it ends; no event in between.
+          ++events;
+          CHECK(e.time_s == d.t);
+          CHECK(e.value == Approx(g));
+          if (events == 1) {
+            CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation held to") && Catch::Contains("latest probe"));
+            CHECK(std::abs(e.value - e.limit) > p.acl_linear_um);
+            CHECK(s.guard_held(0) == 1.0);
+          } else {
+            CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation held no more than the ACL"));
+            CHECK(std::abs(e.value - e.limit) <= p.acl_linear_um);
+            CHECK(s.guard_held(0) == 0.0);
+          }
+        }
+    }
+    INFO("prediction " << d.controller.state().prediction(0) << ", anchor " << anchor << " at " << anchor_s / kHour << " h, rate " << rate * kHour << " per h, held before " << before.guard_held(0));
+    if (guard) {
+      CHECK(held > 60);
+      CHECK(events == 2);
+      CHECK(std::abs(d.controller.state().prediction(0) - anchor) > p.acl_linear_um + 2.0 * rate * 1.5);
+    } else {
+      CHECK(d.of_type(ControllerEvent::Type::Guard).empty());
+    }
+  }
 }
 
 TEST_CASE("controller: a state saved while the guard backs off continues bit for bit") {

@@ -119,6 +119,7 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
     CHECK(c.error_low == end.error_low);
     CHECK(c.error_high == end.error_high);
     CHECK(c.guard_off_range == end.guard_off_range);
+    CHECK(c.guard_held == end.guard_held);
     for (std::size_t k = 0; k < r.outputs.size(); ++k) {
       CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
       CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
@@ -189,6 +190,8 @@ TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refuse
   CHECK(decoded.controller.schedule_since_s >= 6.5 * 3600.0);  // CP ended at 6.5 h
   CHECK(decoded.controller.schedule_prediction == live.schedule_prediction);
   CHECK(decoded.controller.schedule_sums == live.schedule_sums);
+  // And which outputs the drift bound holds back (version 7).
+  CHECK(decoded.controller.guard_held == live.guard_held);
   CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
   CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
   std::string flipped = bytes;

@@ -171,6 +171,7 @@ struct ControllerState {
   Eigen::VectorXd error_low;           // [unit] smallest and largest thermal error of all probes (+-inf: none)
   Eigen::VectorXd error_high;
   Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
+  Eigen::VectorXd guard_held;          // 1 while compensation is held to the drift the probes have measured
 };
 
 // Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1, no range) where it is not.
@@ -227,9 +228,10 @@ class Controller {
   void weigh_schedule(double time_s, const Eigen::VectorXd& residuals);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
   void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
-  // The prediction with the guard applied (what is compensated); with `out`, also the events of an
-  // output whose prediction leaves or re-enters the range of the measured errors.
-  Eigen::VectorXd compensated() const;
+  // The prediction with the guard applied at `time_s` (what is compensated); with `out`, also the events
+  // of an output whose prediction leaves or re-enters the range of the measured errors, or whose
+  // compensation the drift bound starts or stops holding back.
+  Eigen::VectorXd compensated(double time_s) const;
   Eigen::VectorXd compensated(double time_s, ControllerOutput& out);
   // Widens the range of the measured thermal errors by a probe's (NaN: not measured).
   void widen_range(const Eigen::VectorXd& errors);
@@ -238,6 +240,15 @@ class Controller {
   ControllerEvent guard_event(double time_s, Eigen::Index output, double value, double limit, const std::string& why) const;
   // [unit] the interval the guard lets compensation take for output i (the measured errors widened).
   std::pair<double, double> guard_range(Eigen::Index i) const;
+  // The drift bound of output i at `time_s`: the latest probe's thermal error, the fastest rate of change
+  // the probes have measured, and the interval compensation may take (+-inf: no evidence yet).
+  struct DriftBound {
+    double anchor = 0.0;  // [unit] the latest probe's thermal error
+    double rate = 0.0;    // [unit/s] the fastest |change| between two probes at least kDriftSpan apart
+    double low = -std::numeric_limits<double>::infinity();
+    double high = std::numeric_limits<double>::infinity();
+  };
+  DriftBound drift_bound(Eigen::Index i, double time_s) const;
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
   // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
   void enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason, const std::string& interval_reason);
