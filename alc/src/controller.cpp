@@ -326,30 +326,48 @@ ControllerEvent Controller::guard_event(double time_s, Eigen::Index output, doub
   return e;
 }
 
-Controller::DriftBound Controller::drift_bound(Eigen::Index i, double time_s) const {
-  // The latest probe that measured output i, and per probe j the change from the latest probe at
-  // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift).
-  DriftBound b;
+const Controller::DriftEvidence& Controller::drift_evidence() const {
   const std::vector<ProbeRecord>& probes = state_.probes;
-  double anchor_s = std::numeric_limits<double>::quiet_NaN();
-  bool has_rate = false;
-  std::size_t before = 0;  // the last probe at least kDriftSpan_s before probe j
-  for (std::size_t j = 0; j < probes.size(); ++j) {
-    const double u = probes[j].errors(i);
-    if (std::isnan(u)) continue;
-    b.anchor = u;
-    anchor_s = probes[j].time_s;
-    while (before + 1 < j && probes[j].time_s - probes[before + 1].time_s >= kDriftSpan_s) ++before;
-    if (probes[j].time_s - probes[before].time_s < kDriftSpan_s) continue;
-    for (std::size_t k = before + 1; k-- > 0;) {
-      if (std::isnan(probes[k].errors(i))) continue;
-      b.rate = std::max(b.rate, std::abs(u - probes[k].errors(i)) / (probes[j].time_s - probes[k].time_s));
-      has_rate = true;
-      break;
+  const auto n = static_cast<Eigen::Index>(output_names_.size());
+  if (drift_.anchor.size() == n && drift_.probes == probes.size() &&
+      (probes.empty() || (drift_.first_s == probes.front().time_s && drift_.last_s == probes.back().time_s)))
+    return drift_;
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  drift_.probes = probes.size();
+  drift_.first_s = probes.empty() ? nan : probes.front().time_s;
+  drift_.last_s = probes.empty() ? nan : probes.back().time_s;
+  drift_.anchor = Eigen::VectorXd::Constant(n, nan);
+  drift_.anchor_s = Eigen::VectorXd::Constant(n, nan);
+  drift_.rate = Eigen::VectorXd::Constant(n, nan);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    // The latest probe that measured output i, and per probe j the change from the latest probe at
+    // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift).
+    std::size_t before = 0;  // the last probe at least kDriftSpan_s before probe j
+    for (std::size_t j = 0; j < probes.size(); ++j) {
+      const double u = probes[j].errors(i);
+      if (std::isnan(u)) continue;
+      drift_.anchor(i) = u;
+      drift_.anchor_s(i) = probes[j].time_s;
+      while (before + 1 < j && probes[j].time_s - probes[before + 1].time_s >= kDriftSpan_s) ++before;
+      if (probes[j].time_s - probes[before].time_s < kDriftSpan_s) continue;
+      for (std::size_t k = before + 1; k-- > 0;) {
+        if (std::isnan(probes[k].errors(i))) continue;
+        const double r = std::abs(u - probes[k].errors(i)) / (probes[j].time_s - probes[k].time_s);
+        drift_.rate(i) = std::isnan(drift_.rate(i)) ? r : std::max(drift_.rate(i), r);
+        break;
+      }
     }
   }
-  if (!has_rate) return b;
-  const double reach = kDriftFactor * b.rate * std::max(0.0, time_s - anchor_s);
+  return drift_;
+}
+
+Controller::DriftBound Controller::drift_bound(Eigen::Index i, double time_s) const {
+  const DriftEvidence& e = drift_evidence();
+  DriftBound b;
+  if (std::isnan(e.rate(i))) return b;  // no evidence yet: no bound
+  b.anchor = e.anchor(i);
+  b.rate = e.rate(i);
+  const double reach = kDriftFactor * b.rate * std::max(0.0, time_s - e.anchor_s(i));
   b.low = b.anchor - reach;
   b.high = b.anchor + reach;
   return b;

@@ -278,6 +278,18 @@ class Controller {
   // The grid lags of state_.history, extended by each identification instead of recomputed: derived
   // from the state, not part of it (a restored controller rebuilds it and decides the same, bit for bit).
   LagCache lag_cache_;
+  // The drift bound's evidence per output, derived from state_.probes alone and rebuilt when they
+  // change (a probe added or dropped), not on every sample: not part of the state either.
+  struct DriftEvidence {
+    std::size_t probes = 0;
+    double first_s = std::numeric_limits<double>::quiet_NaN();
+    double last_s = std::numeric_limits<double>::quiet_NaN();
+    Eigen::VectorXd anchor;    // [unit] the latest probe's thermal error (NaN: none measured)
+    Eigen::VectorXd anchor_s;  // [s] its time
+    Eigen::VectorXd rate;      // [unit/s] the fastest change (NaN: no two probes kDriftSpan apart yet)
+  };
+  mutable DriftEvidence drift_;
+  const DriftEvidence& drift_evidence() const;
 };
 
 }  // namespace alc
