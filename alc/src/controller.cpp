@@ -329,11 +329,14 @@ ControllerEvent Controller::guard_event(double time_s, Eigen::Index output, doub
 const Controller::DriftEvidence& Controller::drift_evidence() const {
   const std::vector<ProbeRecord>& probes = state_.probes;
   const auto n = static_cast<Eigen::Index>(output_names_.size());
-  if (drift_.anchor.size() == n && drift_.probes == probes.size() &&
+  // The probes change by being added (at the back), dropped (at the front) or set aside as outliers
+  // (weight 0, only when a pending breach is judged, which changes breach_probe): the key sees each.
+  if (drift_.anchor.size() == n && drift_.probes == probes.size() && drift_.breach_probe == state_.breach_probe &&
       (probes.empty() || (drift_.first_s == probes.front().time_s && drift_.last_s == probes.back().time_s)))
     return drift_;
   constexpr double nan = std::numeric_limits<double>::quiet_NaN();
   drift_.probes = probes.size();
+  drift_.breach_probe = state_.breach_probe;
   drift_.first_s = probes.empty() ? nan : probes.front().time_s;
   drift_.last_s = probes.empty() ? nan : probes.back().time_s;
   drift_.anchor = Eigen::VectorXd::Constant(n, nan);
@@ -341,17 +344,22 @@ const Controller::DriftEvidence& Controller::drift_evidence() const {
   drift_.rate = Eigen::VectorXd::Constant(n, nan);
   for (Eigen::Index i = 0; i < n; ++i) {
     // The latest probe that measured output i, and per probe j the change from the latest probe at
-    // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift).
+    // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift). An
+    // outlier (weight 0) and a breach not yet confirmed by the first NG probe are no evidence.
+    const auto usable = [&](std::size_t k) {
+      return !std::isnan(probes[k].errors(i)) && probes[k].weight > 0.0 &&
+             static_cast<long long>(k) != static_cast<long long>(state_.breach_probe);
+    };
     std::size_t before = 0;  // the last probe at least kDriftSpan_s before probe j
     for (std::size_t j = 0; j < probes.size(); ++j) {
+      if (!usable(j)) continue;
       const double u = probes[j].errors(i);
-      if (std::isnan(u)) continue;
       drift_.anchor(i) = u;
       drift_.anchor_s(i) = probes[j].time_s;
       while (before + 1 < j && probes[j].time_s - probes[before + 1].time_s >= kDriftSpan_s) ++before;
       if (probes[j].time_s - probes[before].time_s < kDriftSpan_s) continue;
       for (std::size_t k = before + 1; k-- > 0;) {
-        if (std::isnan(probes[k].errors(i))) continue;
+        if (!usable(k)) continue;
         const double r = std::abs(u - probes[k].errors(i)) / (probes[j].time_s - probes[k].time_s);
         drift_.rate(i) = std::isnan(drift_.rate(i)) ? r : std::max(drift_.rate(i), r);
         break;
@@ -412,6 +420,7 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);
       if (held == (state_.guard_held(i) != 0.0)) continue;
       state_.guard_held(i) = held ? 1.0 : 0.0;
+      if (off) continue;  // the range's switch took over (its own event above): nothing is compensated
       std::ostringstream why;
       if (held)
         why << "compensation held to [" << b.low << ", " << b.high << "]: the prediction " << g

@@ -68,8 +68,10 @@ struct AlcParameters {
   double max_interval_s = 12 * 3600.0;     // [s]
   bool guard = true;                       // back compensation off where it does no good (docs/adaptive.md): per
                                            // output, scale the prediction by its least-squares gain in [0, 1]
-                                           // against the errors of recent Post-CP probes, and compensate nothing
-                                           // while the prediction leaves the range of the measured errors
+                                           // against the errors of recent Post-CP probes, compensate nothing
+                                           // while the prediction leaves the range of the measured errors, and
+                                           // keep compensation within the latest probe's error +- 2 x the
+                                           // fastest drift measured x the time since (the drift bound)
   // Plausibility (docs/runtime.md, "Plausibility"): a finite reading beyond these magnitudes is a sensor
   // fault, not a thermal error. A probe's error beyond its limit is set aside for that output (an
   // Implausible event; the other outputs of the probe are learned); an input beyond its limit rejects
@@ -109,9 +111,10 @@ struct ControllerEvent {
   double interval_s = 0.0;       // [s] new probe interval (ProbeIntervalChange)
   std::string output;            // error name (AclBreach, Guard, Implausible)
   double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the new gain (Guard) or the prediction
-                                 //     that left the range (Guard, range); the reading set aside (Implausible)
-  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound;
-                                 //     the plausibility limit (Implausible)
+                                 //     that left the range (Guard, range) or the prediction with its gain (Guard,
+                                 //     drift bound); the reading set aside (Implausible)
+  double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound
+                                 //     or the drift bound's nearer edge; the plausibility limit (Implausible)
   std::string reason;            // human-readable why
 };
 std::string_view to_string(ControllerEvent::Type type);
@@ -171,7 +174,7 @@ struct ControllerState {
   Eigen::VectorXd error_low;           // [unit] smallest and largest thermal error of all probes (+-inf: none)
   Eigen::VectorXd error_high;
   Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
-  Eigen::VectorXd guard_held;          // 1 while compensation is held to the drift the probes have measured
+  Eigen::VectorXd guard_held;          // 1 while the drift bound holds compensation back by more than the ACL
 };
 
 // Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1, no range) where it is not.
@@ -282,13 +285,14 @@ class Controller {
   // change (a probe added or dropped), not on every sample: not part of the state either.
   struct DriftEvidence {
     std::size_t probes = 0;
+    int breach_probe = -1;
     double first_s = std::numeric_limits<double>::quiet_NaN();
     double last_s = std::numeric_limits<double>::quiet_NaN();
     Eigen::VectorXd anchor;    // [unit] the latest probe's thermal error (NaN: none measured)
     Eigen::VectorXd anchor_s;  // [s] its time
     Eigen::VectorXd rate;      // [unit/s] the fastest change (NaN: no two probes kDriftSpan apart yet)
   };
-  mutable DriftEvidence drift_;
+  mutable DriftEvidence drift_;  // written by const methods: a Controller is not for concurrent use
   const DriftEvidence& drift_evidence() const;
 };
 
