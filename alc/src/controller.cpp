@@ -1,6 +1,7 @@
 #include "alc/controller.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -29,6 +30,9 @@ std::string hours(double s) {
   o << s / 3600.0 << " h";
   return o.str();
 }
+
+// The median of three values (a single one that the other two do not confirm drops out).
+double median3(double a, double b, double c) { return std::max(std::min(a, b), std::min(std::max(a, b), c)); }
 
 }  // namespace
 
@@ -165,7 +169,7 @@ Controller::Controller(std::vector<std::string> input_names, std::vector<std::st
   state_ = std::move(state);
   init_evidence(state_, output_names_.size());  // a state saved before the evidence existed
   if (no_range)
-    for (const ProbeRecord& p : state_.probes) widen_range(p.errors);  // the guard's range from the probes kept
+    for (std::size_t j = 0; j < state_.probes.size(); ++j) settle_range(j);  // the guard's range from the probes kept
 }
 
 double Controller::learning_window_start(double time_s) const {
@@ -293,7 +297,8 @@ void Controller::weigh_schedule(double time_s, const Eigen::VectorXd& residuals)
 // The guard (docs/adaptive.md). Its sums decay by this factor per probe after CP (about the last 20
 // probes weigh); the gain is applied once this many probes are in them, in steps of kGuardStep (each
 // change an event). The range that compensation may take is the measured errors' (with 0) widened on
-// both sides by kRangeMargin x its width, at least by the ACL.
+// both sides by kRangeMargin x its width, at least by the ACL; a measured error counts once the probes
+// beside it confirm it (the median of three consecutive probes) or while it is the latest.
 constexpr double kGuardDecay = 0.95;
 constexpr int kGuardMinProbes = 12;
 constexpr double kGuardStep = 0.1;
@@ -307,8 +312,16 @@ constexpr double kDriftSpan_s = 1.0 * 3600.0;
 
 std::pair<double, double> Controller::guard_range(Eigen::Index i) const {
   if (!(state_.error_low(i) <= state_.error_high(i))) return {-kInf, kInf};
-  const double lo = std::min(state_.error_low(i), 0.0);
-  const double hi = std::max(state_.error_high(i), 0.0);
+  double lo = std::min(state_.error_low(i), 0.0);
+  double hi = std::max(state_.error_high(i), 0.0);
+  // The latest evidence probe counts at once (its successor has yet to settle it): a change that lasts
+  // widens the range from the probe that first measures it.
+  for (std::size_t k = state_.probes.size(); k-- > 0;)
+    if (evidence(k, i)) {
+      lo = std::min(lo, state_.probes[k].errors(i));
+      hi = std::max(hi, state_.probes[k].errors(i));
+      break;
+    }
   const double margin = std::max(acl_of(static_cast<std::size_t>(i)), kRangeMargin * (hi - lo));
   return {lo - margin, hi + margin};
 }
@@ -342,25 +355,36 @@ const Controller::DriftEvidence& Controller::drift_evidence() const {
   drift_.anchor = Eigen::VectorXd::Constant(n, nan);
   drift_.anchor_s = Eigen::VectorXd::Constant(n, nan);
   drift_.rate = Eigen::VectorXd::Constant(n, nan);
+  std::vector<double> settled(probes.size());  // per probe the value its neighbours settle (NaN: no evidence)
   for (Eigen::Index i = 0; i < n; ++i) {
     // The latest probe that measured output i, and per probe j the change from the latest probe at
-    // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift). An
-    // outlier (weight 0) and a breach not yet confirmed by the first NG probe are no evidence.
+    // least kDriftSpan_s before it (shorter spans would measure the probe noise, not the drift). Only
+    // evidence probes count, and not a breach the first NG probe has yet to confirm; each (but the
+    // first and the latest) as the median of itself and its two neighbours: a chip on the sphere during
+    // CP, which no breach judges, is no drift.
     const auto usable = [&](std::size_t k) {
-      return !std::isnan(probes[k].errors(i)) && probes[k].weight > 0.0 &&
-             static_cast<long long>(k) != static_cast<long long>(state_.breach_probe);
+      return evidence(k, i) && static_cast<long long>(k) != static_cast<long long>(state_.breach_probe);
     };
+    std::fill(settled.begin(), settled.end(), nan);
+    for (std::size_t k = 0, prev = probes.size(), last = probes.size(); k < probes.size(); ++k) {
+      if (!usable(k)) continue;
+      settled[k] = probes[k].errors(i);
+      if (prev != probes.size() && last != probes.size())
+        settled[prev] = median3(probes[last].errors(i), probes[prev].errors(i), probes[k].errors(i));
+      last = prev;
+      prev = k;
+    }
     std::size_t before = 0;  // the last probe at least kDriftSpan_s before probe j
     for (std::size_t j = 0; j < probes.size(); ++j) {
       if (!usable(j)) continue;
-      const double u = probes[j].errors(i);
-      drift_.anchor(i) = u;
+      const double u = settled[j];
+      drift_.anchor(i) = probes[j].errors(i);
       drift_.anchor_s(i) = probes[j].time_s;
       while (before + 1 < j && probes[j].time_s - probes[before + 1].time_s >= kDriftSpan_s) ++before;
       if (probes[j].time_s - probes[before].time_s < kDriftSpan_s) continue;
       for (std::size_t k = before + 1; k-- > 0;) {
         if (!usable(k)) continue;
-        const double r = std::abs(u - probes[k].errors(i)) / (probes[j].time_s - probes[k].time_s);
+        const double r = std::abs(u - settled[k]) / (probes[j].time_s - probes[k].time_s);
         drift_.rate(i) = std::isnan(drift_.rate(i)) ? r : std::max(drift_.rate(i), r);
         break;
       }
@@ -465,11 +489,20 @@ void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const
   }
 }
 
-void Controller::widen_range(const Eigen::VectorXd& errors) {
-  for (Eigen::Index i = 0; i < errors.size(); ++i) {
-    if (std::isnan(errors(i))) continue;
-    state_.error_low(i) = std::min(state_.error_low(i), errors(i));
-    state_.error_high(i) = std::max(state_.error_high(i), errors(i));
+bool Controller::evidence(std::size_t k, Eigen::Index i) const {
+  return !std::isnan(state_.probes[k].errors(i)) && state_.probes[k].weight > 0.0;
+}
+
+void Controller::settle_range(std::size_t j) {
+  for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(output_names_.size()); ++i) {
+    std::array<double, 3> v{};
+    std::size_t found = 0;
+    for (std::size_t k = j + 1; k-- > 0 && found < v.size();)
+      if (evidence(k, i)) v[found++] = state_.probes[k].errors(i);
+    if (found < v.size()) continue;
+    const double m = median3(v[0], v[1], v[2]);
+    state_.error_low(i) = std::min(state_.error_low(i), m);
+    state_.error_high(i) = std::max(state_.error_high(i), m);
   }
 }
 
@@ -729,8 +762,8 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   record.time_s = t;
   record.sample_index = state_.history.time_s.size() - 1;
   record.errors = thermal_errors(usable);
-  widen_range(record.errors);
   state_.probes.push_back(record);
+  settle_range(state_.probes.size() - 1);
   ++state_.probe_cycles;
 
   // Residual against the prediction that was active when the probe ran.

@@ -1,6 +1,18 @@
+
+
+
+
+
+
+
+
+
+
 // The ALC state machine on scripted probe results: CP -> Post-CP -> NG -> update -> Post-CP,
 // the update interval, each `inf`, an ACL breach on an angular error only, save/restore.
 #include <catch2/catch.hpp>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -790,6 +802,9 @@ TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gai
 
 // An event of the guard's drift bound (its own test below).
 bool is_drift_bound(const ControllerEvent& e) { return e.reason.rfind("guard: compensation held", 0) == 0; }
+bool is_range(const ControllerEvent& e) {
+  return e.reason.rfind("guard: compensation off", 0) == 0 || e.reason.rfind("guard: compensation on again", 0) == 0;
+}
 
 // The errors vanish from 2 h on while no identification succeeds any more (the model stays): the
 // model's predictions are wrong, no compensation would be right.
@@ -825,10 +840,20 @@ TEST_CASE("controller: the guard backs compensation off where the model does wor
     if (guard) {
       REQUIRE_FALSE(guards.empty());
       // Each change of the gain is an event with the recent RMS without and with the prediction; the
-      // drift bound (its own test below) holds the wrong prediction back too, with its own events.
+      // drift bound and the range (their own tests below) hold the wrong prediction back too, with their
+      // own events: the range's when the prediction passes the edge of the errors measured (a peak of
+      // 5.756 µm, settled at 5.750 by the median of its probe and the two beside it).
       int gains = 0;
       for (const auto& e : guards) {
         if (is_drift_bound(e)) continue;
+        if (is_range(e)) {
+          CHECK(e.time_s > 2 * kHour);
+          if (e.reason.rfind("guard: compensation off", 0) == 0)
+            CHECK((e.limit < 0.0 ? e.value < e.limit : e.value > e.limit));  // beyond the edge it names
+          else
+            CHECK(e.value >= e.limit);  // back within: above the lower edge
+          continue;
+        }
         ++gains;
         CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation gain") && Catch::Contains("uncompensated"));
         CHECK((e.output == "E_X0C" || e.output == "E_A0C"));
@@ -926,14 +951,25 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
 }
 
 // The fastest |change| of output 0's error between two probes at least `span_s` apart, each probe
-// paired with the latest one that far before it (the rule of docs/adaptive.md, recomputed here).
-double fastest_drift(const ControllerState& s, double span_s) {
+// paired with the latest one that far before it, every probe but the first and the latest taken as the
+// median of itself and the probes beside it (the rule of docs/adaptive.md, recomputed here; `settle`
+// false: the probes' values as they are).
+double fastest_drift(const ControllerState& s, double span_s, bool settle = true) {
+  const auto& probes = s.probes;
+  std::vector<double> v(probes.size());
+  for (std::size_t k = 0; k < probes.size(); ++k) {
+    v[k] = probes[k].errors(0);
+    if (settle && k > 0 && k + 1 < probes.size()) {
+      std::array<double, 3> three{probes[k - 1].errors(0), v[k], probes[k + 1].errors(0)};
+      std::sort(three.begin(), three.end());
+      v[k] = three[1];
+    }
+  }
   double rate = 0.0;
-  for (std::size_t j = 0; j < s.probes.size(); ++j)
+  for (std::size_t j = 0; j < probes.size(); ++j)
     for (std::size_t k = j; k-- > 0;)
-      if (s.probes[j].time_s - s.probes[k].time_s >= span_s) {
-        rate = std::max(rate, std::abs(s.probes[j].errors(0) - s.probes[k].errors(0)) /
-                                  (s.probes[j].time_s - s.probes[k].time_s));
+      if (probes[j].time_s - probes[k].time_s >= span_s) {
+        rate = std::max(rate, std::abs(v[j] - v[k]) / (probes[j].time_s - probes[k].time_s));
         break;
       }
   return rate;
@@ -1006,6 +1042,54 @@ TEST_CASE("controller: the guard holds compensation within the drift the probes 
       CHECK(d.of_type(ControllerEvent::Type::Guard).empty());
     }
   }
+}
+
+TEST_CASE("controller: a chip on the sphere during CP widens neither the guard's range nor its drift bound") {
+  // No breach judges a CP probe: the chip (+10 µm on E_X0C at the probe at 1 h only) enters the probes,
+  // and the probes beside it settle it away (the median of three).
+  AlcParameters p = test_parameters();
+  p.acl_linear_um = 2.0;  // a hold beyond 2 µm is an event
+  Driver clean(p), chipped(p);
+  clean.run_until(2 * kHour + kMinute);  // CP ends with the sample at 2 h
+  chipped.run_until(2 * kHour + kMinute, [&](double t) { chipped.plant.offset_x = t == 1 * kHour ? 10.0 : 0.0; });
+  const ControllerState& c = clean.controller.state();
+  const ControllerState& s = chipped.controller.state();
+  REQUIRE(s.phase == Phase::PostCalibration);
+  REQUIRE(s.probes.size() == c.probes.size());
+  double highest = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < s.probes.size(); ++k) {
+    INFO("probe at " << s.probes[k].time_s / kHour << " h");
+    CHECK(s.probes[k].errors(0) == c.probes[k].errors(0) + (s.probes[k].time_s == 1 * kHour ? 10.0 : 0.0));
+    highest = std::max(highest, s.probes[k].errors(0));
+  }
+  // The range: as without the chip, which lies above it.
+  CHECK(s.error_low(0) == c.error_low(0));
+  CHECK(s.error_high(0) == c.error_high(0));
+  CHECK(highest > s.error_high(0) + 5.0);
+  // The drift bound: its rate is the settled one, a third of what the chip would make it, and near the
+  // clean run's (the chip's place takes the value of a probe beside it, 5 min away).
+  const double rate = fastest_drift(s, 1 * kHour);
+  REQUIRE(fastest_drift(s, 1 * kHour, false) > 3.0 * rate);
+  CHECK(rate < 1.1 * fastest_drift(c, 1 * kHour));
+  // A temperature far above the run's: the (chip-bent) model's prediction runs off, the bound holds it,
+  // and the hold's edge is the latest probe's error + 2 x the settled rate x the time since.
+  const ProbeRecord& latest = s.probes.back();
+  Eigen::VectorXd hot(2);
+  hot << 30.0, 500.0;
+  bool held = false;
+  for (int i = 0; i < 60 && !held; ++i) {
+    chipped.t += kMinute;
+    const ControllerOutput out = chipped.controller.on_sample(chipped.t, hot);
+    for (const auto& e : out.events)
+      if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C") {
+        INFO(e.reason);
+        REQUIRE(is_drift_bound(e));
+        CHECK(e.limit == Approx(latest.errors(0) + 2.0 * rate * (chipped.t - latest.time_s)));
+        CHECK(out.prediction(0) == Approx(e.limit));
+        held = true;
+      }
+  }
+  CHECK(held);
 }
 
 TEST_CASE("controller: a state saved while the guard backs off continues bit for bit") {

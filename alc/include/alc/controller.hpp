@@ -171,7 +171,8 @@ struct ControllerState {
   Eigen::VectorXd guard_error;         // [unit²] the same of error² (the energy without compensation)
   int guard_probes = 0;                // Post-CP probes in the sums
   Eigen::VectorXd guard_gain;          // [-] applied gain in [0, 1] (1: the prediction as it is)
-  Eigen::VectorXd error_low;           // [unit] smallest and largest thermal error of all probes (+-inf: none)
+  Eigen::VectorXd error_low;           // [unit] smallest and largest settled thermal error (each the median of
+                                       // three consecutive evidence probes, so a single chip is not one) (+-inf: none)
   Eigen::VectorXd error_high;
   Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
   Eigen::VectorXd guard_held;          // 1 while the drift bound holds compensation back by more than the ACL
@@ -236,8 +237,13 @@ class Controller {
   // compensation the drift bound starts or stops holding back.
   Eigen::VectorXd compensated(double time_s) const;
   Eigen::VectorXd compensated(double time_s, ControllerOutput& out);
-  // Widens the range of the measured thermal errors by a probe's (NaN: not measured).
-  void widen_range(const Eigen::VectorXd& errors);
+  // Whether probe k is evidence of output i's thermal error: measured and not set aside as an outlier
+  // (weight 0).
+  bool evidence(std::size_t k, Eigen::Index i) const;
+  // Widens the range of the measured thermal errors by what probe j settles: per output the median of
+  // the latest three evidence probes up to j (a single probe its neighbours do not confirm, a chip on
+  // the sphere, widens nothing; a change that lasts widens it one probe later).
+  void settle_range(std::size_t j);
   // A Guard event at `time_s` for output i (value, limit as ControllerEvent documents them; the reason
   // "guard: " + why).
   ControllerEvent guard_event(double time_s, Eigen::Index output, double value, double limit, const std::string& why) const;
