@@ -193,7 +193,7 @@ TEST_CASE("held-out cases: a replay with the default set ends with finite indica
 TEST_CASE("held-out H5: without the guard compensation makes errors worse than none, with it none is") {
   // H5's inputs barely explain its errors: the model mispredicts when the hidden source switches.
   // Its own seed and the other seeds (of 1-10) at which the guard brings every output back to or
-  // below uncompensated; at seed 5 one output (E_Z0T) stays above by 0.03 µm, a misprediction
+  // below uncompensated; at seed 5 one output (E_Z0T) stays above by 0.14 µm, a misprediction
   // between two probes (docs/adaptive.md, "What remains"). Seeds 6 and 7 were such exceptions until
   // the guard's drift bound.
   const std::uint64_t seed = GENERATE(as<std::uint64_t>{}, 0, 1, 2, 3, 4, 6, 7, 8);
@@ -213,4 +213,24 @@ TEST_CASE("held-out H5: without the guard compensation makes errors worse than n
   }
   CHECK(worse_without >= 1);
   CHECK(with.mean_p99(alc::ErrorKind::Linear) < without.mean_p99(alc::ErrorKind::Linear));
+}
+
+TEST_CASE("held-out cases and S16 at seeds 1-10: per run ALC's mean P99 stays below uncompensated") {
+  // The issue's "no case is made worse than uncompensated" per recording: the mean P99 of its linear
+  // and of its angular errors with ALC against without (docs/adaptive.md: at most 0.81 of it over the
+  // own seeds and seeds 1-80). Single outputs may still exceed theirs ("What remains" lists them).
+  const std::uint64_t seed = GENERATE(range<std::uint64_t>(1, 11));
+  for (const std::string name : {"H1", "H2", "H3", "H4", "H5", "S16"}) {
+    INFO(name << " seed " << seed);
+    const auto run = sc::simulate_case(name, seed);
+    const alc::runtime::ReplayReport r = alc::runtime::replay(run.scenario, alc::AlcParameters{});
+    for (const alc::ErrorKind kind : {alc::ErrorKind::Linear, alc::ErrorKind::Angular}) {
+      const double with = r.mean_p99(kind);
+      const double without = r.mean_p99_uncompensated(kind);
+      if (std::isnan(with)) continue;  // S16 has no angular error
+      INFO((kind == alc::ErrorKind::Linear ? "linear " : "angular ") << with << " with ALC, " << without
+                                                                     << " uncompensated");
+      CHECK(with < without);
+    }
+  }
 }
