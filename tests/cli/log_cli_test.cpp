@@ -63,3 +63,12 @@ TEST_CASE("alc --log-file in a directory that does not exist fails naming the fi
   CHECK_THAT(r.err, Catch::Contains(log.string()));
   CHECK(r.out.empty());
 }
+
+TEST_CASE("alc --log-level info replay: the guard's decisions are logged with their output, the type named once") {
+  const alc_test::CliRun r = run("--log-level info replay --case H5");
+  REQUIRE(r.exit_code == 0);
+  // e.g. "t = 37200 s: guard: E_Z0T: compensation gain 1 -> 0: on the recent probes ..."
+  CHECK_THAT(r.err, Catch::Contains("s: guard: E_Z0T: compensation gain 1 -> 0: on the recent probes"));
+  CHECK(r.err.find(": guard: guard") == std::string::npos);
+  CHECK(r.err.find(": guard: E_Z0T: guard:") == std::string::npos);
+}
