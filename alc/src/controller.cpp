@@ -335,7 +335,7 @@ ControllerEvent Controller::guard_event(double time_s, Eigen::Index output, doub
   e.output = output_names_[static_cast<std::size_t>(output)];
   e.value = value;
   e.limit = limit;
-  e.reason = "guard: " + why;
+  e.reason = why;  // the type names the guard: every consumer shows it beside the reason
   return e;
 }
 

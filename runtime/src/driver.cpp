@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <string_view>
 
 #include "common/log.hpp"
 
@@ -13,13 +12,10 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// An event told at info level (phase changes, rejected models, the guard's decisions). A reason that
-// starts with the type's name (the guard's "guard: …") does not repeat it after the output.
+// An event told at info level (phase changes, rejected models, the guard's decisions).
 void log_event(const ControllerEvent& e) {
-  const std::string type(to_string(e.type));
-  std::string_view reason = e.reason;
-  if (reason.substr(0, type.size() + 2) == type + ": ") reason.remove_prefix(type.size() + 2);
-  log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, type, e.output.empty() ? "" : e.output + ": ", reason);
+  log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ",
+                            e.reason);
 }
 }  // namespace
 

@@ -801,9 +801,9 @@ TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gai
 }
 
 // An event of the guard's drift bound (its own test below).
-bool is_drift_bound(const ControllerEvent& e) { return e.reason.rfind("guard: compensation held", 0) == 0; }
+bool is_drift_bound(const ControllerEvent& e) { return e.reason.rfind("compensation held", 0) == 0; }
 bool is_range(const ControllerEvent& e) {
-  return e.reason.rfind("guard: compensation off", 0) == 0 || e.reason.rfind("guard: compensation on again", 0) == 0;
+  return e.reason.rfind("compensation off", 0) == 0 || e.reason.rfind("compensation on again", 0) == 0;
 }
 
 // The errors vanish from 2 h on while no identification succeeds any more (the model stays): the
@@ -848,14 +848,14 @@ TEST_CASE("controller: the guard backs compensation off where the model does wor
         if (is_drift_bound(e)) continue;
         if (is_range(e)) {
           CHECK(e.time_s > 2 * kHour);
-          if (e.reason.rfind("guard: compensation off", 0) == 0)
+          if (e.reason.rfind("compensation off", 0) == 0)
             CHECK((e.limit < 0.0 ? e.value < e.limit : e.value > e.limit));  // beyond the edge it names
           else
             CHECK(e.value >= e.limit);  // back within: above the lower edge
           continue;
         }
         ++gains;
-        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation gain") && Catch::Contains("uncompensated"));
+        CHECK_THAT(e.reason, Catch::StartsWith("compensation gain") && Catch::Contains("uncompensated"));
         CHECK((e.output == "E_X0C" || e.output == "E_A0C"));
         CHECK(e.from == e.to);
         CHECK(e.from != Phase::Calibration);  // evidence after CP only
@@ -904,7 +904,7 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     const ControllerOutput out = d.controller.on_sample(d.t, hot);
     for (const auto& e : out.events)
       if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C" && !is_drift_bound(e)) {
-        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation off") && Catch::Contains("left the range"));
+        CHECK_THAT(e.reason, Catch::StartsWith("compensation off") && Catch::Contains("left the range"));
         CHECK(e.time_s == d.t);
         CHECK(e.from == d.controller.phase());
         CHECK(e.to == e.from);
@@ -926,7 +926,7 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
     const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
     for (const auto& e : out.events)
       if (e.type == ControllerEvent::Type::Guard && e.output == "E_X0C" && !is_drift_bound(e)) {
-        CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation on again"));
+        CHECK_THAT(e.reason, Catch::StartsWith("compensation on again"));
         CHECK(e.limit <= e.value);  // back within the range: above its lower bound
         on = true;
         // Compensated again: the prediction with its gain, within the drift bound around the latest probe's
@@ -1022,11 +1022,11 @@ TEST_CASE("controller: the guard holds compensation within the drift the probes 
           CHECK(e.time_s == d.t);
           CHECK(e.value == Approx(g));
           if (events == 1) {
-            CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation held to") && Catch::Contains("latest probe"));
+            CHECK_THAT(e.reason, Catch::StartsWith("compensation held to") && Catch::Contains("latest probe"));
             CHECK(std::abs(e.value - e.limit) > p.acl_linear_um);
             CHECK(s.guard_held(0) == 1.0);
           } else {
-            CHECK_THAT(e.reason, Catch::StartsWith("guard: compensation held no more than the ACL"));
+            CHECK_THAT(e.reason, Catch::StartsWith("compensation held no more than the ACL"));
             CHECK(std::abs(e.value - e.limit) <= p.acl_linear_um);
             CHECK(s.guard_held(0) == 0.0);
           }

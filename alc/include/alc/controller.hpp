@@ -245,7 +245,7 @@ class Controller {
   // the sphere, widens nothing; a change that lasts widens it one probe later).
   void settle_range(std::size_t j);
   // A Guard event at `time_s` for output i (value, limit as ControllerEvent documents them; the reason
-  // "guard: " + why).
+  // `why`, which does not repeat the type).
   ControllerEvent guard_event(double time_s, Eigen::Index output, double value, double limit, const std::string& why) const;
   // [unit] the interval the guard lets compensation take for output i (the measured errors widened).
   std::pair<double, double> guard_range(Eigen::Index i) const;
