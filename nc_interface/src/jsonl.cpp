@@ -6,6 +6,7 @@
 #include <ostream>
 #include <set>
 
+#include "common/strict_json.hpp"
 #include "nc_interface/dialects.hpp"
 
 namespace alc::nc {
@@ -75,9 +76,10 @@ JsonlError::JsonlError(std::string source_, std::size_t line_, std::string field
 NcCommand parse_command_json(const std::string& line_text, const std::string& source, std::size_t line) {
   json object;
   try {
-    object = json::parse(line_text);
-  } catch (const json::exception& e) {  // parse errors and number overflow (1e400)
-    throw JsonlError(source, line, "", line_text, std::string("not JSON (") + e.what() + ")");
+    object = common::parse_json_text(line_text);
+  } catch (const common::JsonTextError& e) {  // not JSON, a number beyond a double (1e400), a key twice
+    if (!e.key.empty()) throw JsonlError(source, line, e.key, "", "duplicate field");
+    throw JsonlError(source, line, "", line_text, std::string("not JSON: ") + e.what());
   }
   if (!object.is_object()) throw JsonlError(source, line, "", line_text, "not a JSON object");
   const auto type_it = object.find("type");

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "common/strict_json.hpp"
+
 namespace alc::supervisor {
 
 namespace {
@@ -13,8 +15,12 @@ using Json = nlohmann::json;
 
 // The parsed object, or why the payload is not one.
 std::variant<Json, Refusal> object_of(const std::string& payload) {
-  Json j = Json::parse(payload, nullptr, false);
-  if (j.is_discarded()) return Refusal{"invalid JSON"};
+  Json j;
+  try {
+    j = common::parse_json_text(payload);
+  } catch (const common::JsonTextError& e) {  // not JSON, a number beyond a double, a key twice
+    return Refusal{std::string("invalid JSON: ") + e.what()};
+  }
   if (!j.is_object()) return Refusal{"not a JSON object"};
   return j;
 }

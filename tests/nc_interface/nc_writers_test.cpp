@@ -216,7 +216,14 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"spindle","rpm":5})");
   CHECK(e.field == "type");
   e = fails("not json");
-  CHECK_THAT(e.reason, StartsWith("not JSON"));
+  CHECK_THAT(e.reason, StartsWith("not JSON: at column 2: "));  // "n" could start null, "o" cannot
+  CHECK(e.reason.find("json.exception") == std::string::npos);
+  e = fails(R"({"type":"probe_interval","minutes":1e400})");
+  CHECK(e.reason == "not JSON: number overflow parsing '1e400'");
+  // A field given twice is refused, not read as the last of them.
+  e = fails(R"({"type":"axis_offsets","x_mm":0.001,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"x_mm":0.002})");
+  CHECK(e.field == "x_mm");
+  CHECK(e.reason == "duplicate field");
   e = fails("[1,2]");
   CHECK(e.reason == "not a JSON object");
   e = fails(R"({"type":"axis_offsets","x_mm":2e6,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0})");

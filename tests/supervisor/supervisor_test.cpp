@@ -84,12 +84,17 @@ TEST_CASE("messages are refused with the reason named") {
     return std::holds_alternative<supervisor::Refusal>(r) ? std::get<supervisor::Refusal>(r).reason : "";
   };
   CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": 2}}").empty());
-  CHECK(reason("{\"time_s\": 1, \"inputs\": {") == "invalid JSON");
+  CHECK_THAT(reason("{\"time_s\": 1, \"inputs\": {"), Catch::StartsWith("invalid JSON: at column 26: "));  // one past the end
+  // A key given twice is refused, not read as the last of them.
+  CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": 2, \"T_WS\": 3}}") ==
+        "invalid JSON: duplicate key 'T_WS'");
   CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1}}") == "input T_WS is missing");
   CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": \"2\"}}") == "input T_WS is not a number: \"2\"");
   // JSON has no NaN or infinity: a non-finite input can only come as invalid JSON.
-  CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": 1e999}}") == "invalid JSON");
-  CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": NaN}}") == "invalid JSON");
+  CHECK(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": 1e999}}") ==
+        "invalid JSON: number overflow parsing '1e999'");
+  CHECK_THAT(reason("{\"time_s\": 1, \"inputs\": {\"T_ENV\": 1, \"T_WS\": NaN}}"),
+             Catch::StartsWith("invalid JSON: at column 46: "));  // the N
   CHECK(reason("{\"inputs\": {}}") == "time_s is missing");
   auto probe = supervisor::parse_probe_result("{\"id\": 3, \"time_s\": 5, \"errors\": {\"E_X0C\": null, \"E_Y0C\": 2}}",
                                               {"E_X0C", "E_Y0C"});
