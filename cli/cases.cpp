@@ -22,11 +22,11 @@ std::vector<std::string> load_case_names(const std::string& selector) {
   return names;
 }
 
-std::uint64_t parse_seed(const std::string& text) {
+std::uint64_t parse_seed(const std::string& text, const std::string& option) {
   try {
-    return common::parse_whole_number("--seed", text, 0, UINT64_MAX);
+    return common::parse_whole_number(option, text, 0, UINT64_MAX);
   } catch (const std::invalid_argument&) {
-    throw UsageError("--seed must be a whole number from 0 to 18446744073709551615, got '" + text + "'");
+    throw UsageError(option + " must be a whole number from 0 to 18446744073709551615, got '" + text + "'");
   }
 }
 

@@ -55,7 +55,14 @@ void add_report_command(CLI::App& app) {
                 "and Pd, the axis offsets (refused commands marked), the indicators and the parameters; for a "
                 "study file its Pareto fronts and heat maps. Opens offline in any browser (see docs/report.md).");
   cmd->add_option("file", args->file, "History database (alc replay --db, alc study --db)")->required();
-  cmd->add_option("--run", args->runs, "Only this run; repeat for several (default: every run of the file)")
+  // Each value through the strict reader of whole numbers (CLI11 alone reads "0x10" as 16).
+  cmd->add_option_function<std::vector<std::string>>(
+         "--run",
+         [args](const std::vector<std::string>& texts) {
+           for (const std::string& t : texts)
+             args->runs.push_back(static_cast<std::int64_t>(whole_option_value("--run", t, 1, INT64_MAX)));
+         },
+         "Only this run; repeat for several (default: every run of the file)")
       ->type_name("N")
       ->allow_extra_args(false);
   cmd->add_option("--out", args->out, "HTML file to write")->capture_default_str();

@@ -427,7 +427,7 @@ void add_study_command(CLI::App& app) {
                 "work saved, peak RSS and the ratio");
   add_whole_option(cmd, "--bench-sample", args->bench_sample, "Independent replays of the benchmark's baseline", 1,
                    100000000);
-  cmd->add_option_function<std::string>("--bench-seed", [args](const std::string& s) { args->bench_seed = parse_seed(s); },
+  cmd->add_option_function<std::string>("--bench-seed", [args](const std::string& s) { args->bench_seed = parse_seed(s, "--bench-seed"); },
                                         "Seed of the benchmark's sample (default 1)");
   cmd->add_flag("--quiet", args->quiet, "No progress on stderr");
 

@@ -43,8 +43,9 @@ void add_replay_command(CLI::App& app);
 // Throws UsageError for an unknown name.
 std::vector<std::string> load_case_names(const std::string& selector);
 
-// A --seed value: decimal digits only, 0 ... 2^64 - 1 (CLI11 would wrap "-1"). Throws UsageError.
-std::uint64_t parse_seed(const std::string& text);
+// A seed option's value (--seed, --bench-seed): decimal digits only, 0 ... 2^64 - 1 (CLI11 would wrap
+// "-1"). Throws UsageError naming the option.
+std::uint64_t parse_seed(const std::string& text, const std::string& option = "--seed");
 
 // alc supervise: the supervisor on an MQTT broker (cli/cmd_supervise.cpp).
 void add_supervise_command(CLI::App& app);

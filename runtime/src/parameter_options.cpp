@@ -28,46 +28,46 @@ bool parse_flag(std::string_view name, std::string_view text) {
 
 const std::vector<ParameterOption>& parameter_options() {
   static const std::vector<ParameterOption> options = {
-      {"cp", "h", kNumber, "Calibration phase length", Stage::Start},
-      {"cp-interval", "min", kNumber, "Probe interval during CP", Stage::Start},
-      {"interval", "h", kNumberOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd},
-      {"ng-interval", "min", kNumberOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach},
-      {"ng-meas", "-", kNumberOrInf, "Probes in a No-Good phase before the update", Stage::Breach},
-      {"update", "h", kNumberOrInf, "Periodic parameter update interval", Stage::CpEnd},
-      {"acl-lin", "µm", kNumber, "Action control limit of linear errors", Stage::CpEnd},
-      {"acl-ang", "µm/m", kNumber, "Action control limit of angular errors", Stage::CpEnd},
-      {"window", "h", kNumberOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start},
-      {"since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start},
-      {"half-life", "h", kNumberOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start},
-      {"method", "-", "fixed-poles or output-error", "Identification route", Stage::Start},
-      {"max-order", "-", "a whole number >= 1", "Highest number of poles per input tried", Stage::Start},
+      {"cp", "h", kNumber, "Calibration phase length", Stage::Start, "cp_duration_s"},
+      {"cp-interval", "min", kNumber, "Probe interval during CP", Stage::Start, "cp_interval_s"},
+      {"interval", "h", kNumberOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"},
+      {"ng-interval", "min", kNumberOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"},
+      {"ng-meas", "-", kNumberOrInf, "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"},
+      {"update", "h", kNumberOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"},
+      {"acl-lin", "µm", kNumber, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"},
+      {"acl-ang", "µm/m", kNumber, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"},
+      {"window", "h", kNumberOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"},
+      {"since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"},
+      {"half-life", "h", kNumberOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"},
+      {"method", "-", "fixed-poles or output-error", "Identification route", Stage::Start, "method"},
+      {"max-order", "-", "a whole number >= 1", "Highest number of poles per input tried", Stage::Start, "max_order"},
       {"structure-refresh", "-", kNumberOrInf, "Data-span growth factor that triggers a structure search",
-       Stage::CpEnd},
-      {"no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd},
-      {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach},
+       Stage::CpEnd, "structure_refresh"},
+      {"no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"},
+      {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"},
       {"schedule", "-", "paper or adaptive", "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
-       Stage::CpEnd},
+       Stage::CpEnd, "schedule_kind"},
       {"uncertainty-fraction", "-", "a number > 0",
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL (above 1: a budget "
-       "beyond the ACL)", Stage::CpEnd},
-      {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd},
+       "beyond the ACL)", Stage::CpEnd, "uncertainty_fraction"},
+      {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"},
       {"max-interval", "h", kNumberOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
-       Stage::CpEnd},
+       Stage::CpEnd, "max_interval_s"},
       {"guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
-       Stage::CpEnd},
+       Stage::CpEnd, "guard"},
       {"plausible-lin", "µm", kNumberOrInf,
-       "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start},
+       "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"},
       {"plausible-ang", "µm/m", kNumberOrInf,
        "A probe's angular error beyond ± this is a sensor fault: set aside for that output (inf: no limit)",
-       Stage::Start},
+       Stage::Start, "plausible_angular_um_per_m"},
       {"plausible-temp", "°C", kNumberOrInf,
        "A temperature input (T_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
-       Stage::Start},
+       Stage::Start, "plausible_temperature_C"},
       {"plausible-speed", "rpm", kNumberOrInf,
-       "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start},
+       "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start, "plausible_speed_rpm"},
       {"plausible-other", "-", kNumberOrInf,
        "Any other input (machine states, ...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
-       Stage::Start},
+       Stage::Start, "plausible_other"},
   };
   return options;
 }
@@ -122,12 +122,36 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   }
 }
 
+namespace {
+// validate()'s "field = value: constraint" (or "identification: IdentificationOptions.field = ...") led
+// by the option that sets the field and its text, where it has one: "cp = 0 (cp_duration_s = 0): ...".
+std::string named_by_option(const std::string& why, const OptionTexts& given) {
+  std::string_view rest = why;
+  if (const auto colon = rest.find(": "); colon != std::string_view::npos && rest.substr(0, colon) == "identification")
+    rest.remove_prefix(colon + 2);
+  const auto eq = rest.find(" = ");
+  const auto end = rest.find(": ");
+  if (eq == std::string_view::npos || end == std::string_view::npos || end < eq) return why;
+  std::string_view field = rest.substr(0, eq);
+  if (const auto dot = field.rfind('.'); dot != std::string_view::npos) field.remove_prefix(dot + 1);  // Options.x
+  for (const ParameterOption& o : parameter_options()) {
+    if (o.field != field) continue;
+    for (auto it = given.rbegin(); it != given.rend(); ++it)  // the last of an option given twice wins
+      if (it->first == o.name)
+        return it->first + " = " + it->second + " (" + std::string(rest.substr(0, end)) + ")" +
+               std::string(rest.substr(end));
+  }
+  return why;
+}
+}  // namespace
+
 AlcParameters parameters_of(const OptionTexts& options) {
   AlcParameters p;
   for (const auto& [name, text] : options) set_parameter(p, name, text);
   // Without refits on probes a breach cannot be confirmed: the paper's literal loop.
   if (!p.refit_on_probe) p.confirm_breach = false;
-  if (const std::string why = p.validate(); !why.empty()) throw InvalidParameters("invalid parameters: " + why);
+  if (const std::string why = p.validate(); !why.empty())
+    throw InvalidParameters("invalid parameters: " + named_by_option(why, options));
   return p;
 }
 

@@ -156,11 +156,21 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"study --case A --jobs -2", "--jobs: '-2' is not a whole number from 0 to 4096"},
       {"study --case A --bench --bench-sample 5x", "--bench-sample: '5x' is not a whole number"},
       {"study --grid paper --case A --shard 0x1/2", "--shard: '0x1/2' is not I/N"},
+      {"study --case A --bench --bench-seed x", "--bench-seed must be a whole number from 0 to 18446744073709551615, got 'x'"},
       {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
       {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number >= 0 or inf"},
-      // What the controller refuses is named by field and value, without an option's "--" before it.
-      {"replay --case A --uncertainty-fraction 0", "alc: error: invalid parameters: uncertainty_fraction = 0: must be positive"},
-      {"replay --case A --min-interval 2 --max-interval 1", "max_interval_s = 3600: must not be below min_interval_s"},
+      // What the controller refuses is named by the option and the text given (the name of a grid key and
+      // of the supervisor's [controller] key too, so without "--"), then by its field in the controller.
+      {"replay --case A --uncertainty-fraction 0",
+       "alc: error: invalid parameters: uncertainty-fraction = 0 (uncertainty_fraction = 0): must be positive"},
+      {"replay --case A --min-interval 2 --max-interval 1",
+       "invalid parameters: max-interval = 1 (max_interval_s = 3600): must not be below min_interval_s"},
+      {"replay --case A --cp 0", "invalid parameters: cp = 0 (cp_duration_s = 0): must be positive and finite"},
+      {"replay --case A --half-life 0",
+       "invalid parameters: half-life = 0 (IdentificationOptions.forgetting_half_life_s = 0): must be > 0"},
+      // A default that another option makes invalid: named with its default text.
+      {"replay --case A --min-interval 20",
+       "invalid parameters: max-interval = 12 (max_interval_s = 43200): must not be below min_interval_s"},
   };
   for (const auto& [args, message] : refused) {
     INFO(args);

@@ -152,6 +152,13 @@ TEST_CASE("alc report: writes the page - not a history - a missing file or an un
 
   r = alc_test::run_alc("report \"" + h.db.string() + "\" --run x", "report_cli");
   CHECK(r.exit_code == 2);
+  // The strict reader of whole numbers: not "0x10" as run 16, not a huge number clamped.
+  for (const std::string bad : {"0x10", "1.5", "99999999999999999999", "0"}) {
+    r = alc_test::run_alc("report \"" + h.db.string() + "\" --run " + bad, "report_cli");
+    INFO(bad << ": " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("--run: '" + bad + "' is not a whole number") != std::string::npos);
+  }
 }
 
 TEST_CASE("report of a study file: the study's Pareto front of each case and its heat maps of P99 and Pd",

@@ -28,6 +28,7 @@ struct ParameterOption {
   std::string_view values;   // what it takes, for messages: "a number >= 0 or inf", "true or false"
   std::string_view help;
   Stage stage = Stage::Start;
+  std::string_view field;    // the AlcParameters field it sets, as validate() names it ("cp_duration_s")
 };
 
 // Every option, in the order of `alc replay --help`.
@@ -48,7 +49,8 @@ struct InvalidParameters : std::invalid_argument {
 
 // The parameters of the defaults with `options` applied, validated (p.validate()). Throws
 // std::invalid_argument naming the option and the value, or InvalidParameters naming the violated
-// constraint ("invalid parameters: ...").
+// constraint, by the option and the value given where the user gave it ("invalid parameters: cp = 0
+// (cp_duration_s = 0): must be positive and finite").
 AlcParameters parameters_of(const OptionTexts& options);
 
 }  // namespace alc::runtime
