@@ -79,6 +79,27 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRec
   log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
+namespace {
+// What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
+// 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
+std::string config_difference(const std::string& stored_text, const std::string& given_text) {
+  const auto stored = nlohmann::json::parse(stored_text, nullptr, false);
+  const auto given = nlohmann::json::parse(given_text, nullptr, false);
+  if (stored.is_discarded() || given.is_discarded()) return stored_text + "; given: " + given_text;
+  const auto a = stored.flatten(), b = given.flatten();
+  std::vector<std::string> lines;
+  for (const auto& [key, value] : a.items())
+    if (!b.contains(key)) lines.push_back(key + ": stored " + value.dump() + ", not given");
+    else if (b[key] != value) lines.push_back(key + ": stored " + value.dump() + ", given " + b[key].dump());
+  for (const auto& [key, value] : b.items())
+    if (!a.contains(key)) lines.push_back(key + ": not stored, given " + value.dump());
+  std::string text;
+  for (std::size_t k = 0; k < lines.size() && k < 5; ++k) text += (k ? "; " : "") + lines[k];
+  if (lines.size() > 5) text += "; and " + std::to_string(lines.size() - 5) + " more";
+  return text;
+}
+}  // namespace
+
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
                            const storage::RunRecord& record, double snapshot_every_s, Resume)
     : writer_(writer), snapshot_every_s_(snapshot_every_s) {
@@ -101,8 +122,7 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
                         " stored, " + (given.empty() ? "(none)" : given) + " given (another recording under the same name?)");
   if (found->config_json != record.config_json)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
-                        "' was started with other parameters: " + found->config_json + "; given: " +
-                        record.config_json);
+                        "' was started with other parameters: " + config_difference(found->config_json, record.config_json));
   run_ = found->run_id;
   // The latest snapshot that decodes (format, checksum): a damaged later one is named and skipped, a
   // run without any usable snapshot is refused unchanged.

@@ -100,6 +100,9 @@ TEST_CASE("alc replay --resume refuses other parameters than the stored run's") 
   const Run r = alc("replay --case A --db \"" + db.string() + "\" --resume --interval 3");
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Matchers::Contains("was started with other parameters"));
+  // The parameter that differs, stored and given (2 h and 3 h), not both configurations whole.
+  CHECK_THAT(r.err, Catch::Matchers::Contains("/parameters/post_cp_interval_s: stored 7200.0, given 10800.0"));
+  CHECK(r.err.find("cp_duration_s") == std::string::npos);
 }
 
 TEST_CASE("alc replay: usage errors name the option and value") {
