@@ -110,7 +110,19 @@ void read_kinematics(Table t, kinematics::MachineChain& chain) {
   t.vector("table_pivot_mm", chain.table.pivot_mm);
   t.vector("workpiece_point_mm", chain.workpiece_point_mm);
   t.no_unknown_keys();
-  if (const std::string e = kinematics::validate(chain); !e.empty()) t.fail("chain", e);
+  // The key the violation is about (kinematics::validate words it by axis), "chain" for the rest.
+  if (const std::string e = kinematics::validate(chain); !e.empty()) {
+    const std::pair<const char*, const char*> keys[] = {{"tilt axis direction", "tilt_direction"},
+                                                        {"tilt axis pivot", "tilt_pivot_mm"},
+                                                        {"table axis direction", "table_direction"},
+                                                        {"table axis pivot", "table_pivot_mm"},
+                                                        {"tilt and table axis directions", "table_direction"},
+                                                        {"workpiece point", "workpiece_point_mm"}};
+    const char* key = "chain";
+    for (const auto& [start, k] : keys)
+      if (e.rfind(start, 0) == 0) key = k;
+    t.fail(key, e);
+  }
 }
 
 void read_nc(Table t, MachineConfig& config) {

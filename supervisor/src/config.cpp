@@ -205,9 +205,13 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   Section m = top.sub("mqtt");
   if (auto v = m.text("host")) c.mqtt.host = *v;
   if (auto v = m.integer("port", 1, 65535)) c.mqtt.port = static_cast<int>(*v);
-  c.mqtt.prefix = m.text("prefix").value_or("alc/" + c.machine_id);
-  if (c.mqtt.prefix.find_first_of("#+") != std::string::npos || c.mqtt.prefix.back() == '/')
-    m.fail("prefix", "must not contain # or + nor end with /");
+  const auto prefix = m.text("prefix");
+  c.mqtt.prefix = prefix.value_or("alc/" + c.machine_id);
+  if (c.mqtt.prefix.find_first_of("#+") != std::string::npos || c.mqtt.prefix.back() == '/') {
+    if (prefix) m.fail("prefix", "must not contain # or + nor end with /");
+    top.fail("machine_id", "must not contain # or + nor end with / (without mqtt.prefix it names the topics alc/" +
+                               c.machine_id + "/...)");
+  }
   c.mqtt.client_id = m.text("client_id").value_or("alc-" + c.machine_id);
   c.mqtt.username = m.text("username");
   if (auto v = m.text("password_file")) c.mqtt.password_file = relative_to(file, *v);
@@ -223,6 +227,10 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   c.signals.outputs = s.names("outputs");
   for (const auto& o : c.signals.outputs)
     if (o.rfind("E_", 0) != 0) s.fail("outputs", "'" + o + "' does not start with E_");
+  // An input named like an error (an output among them too) would be an output in every scenario CSV
+  // made of the run.
+  for (const auto& i : c.signals.inputs)
+    if (i.rfind("E_", 0) == 0) s.fail("inputs", "'" + i + "' starts with E_, which names an error (an output)");
   if (auto v = s.number("stale_after_s", 0.0)) c.signals.stale_after_s = *v;
   if (auto v = s.number("probe_timeout_s", 0.0)) c.signals.probe_timeout_s = *v;
   s.no_unknown_keys();

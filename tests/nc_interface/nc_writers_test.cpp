@@ -543,7 +543,12 @@ c_deg = 0.002
   CHECK(error("[nc]\nwork_offset = \"G54.1\"") == "m.toml: key 'nc.work_offset': must be one of G54 … G59: value '\"G54.1\"'");
   CHECK_THAT(error("[nc]\nfanuc_interval_variable = 33"), StartsWith("m.toml: key 'nc.fanuc_interval_variable'") && Contains("33"));
   CHECK_THAT(error("[kinematics]\ntilt_direction = [1, 0]"), StartsWith("m.toml: key 'kinematics.tilt_direction'"));
-  CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 1]"), Contains("parallel"));
+  CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 1]"),
+             StartsWith("m.toml: key 'kinematics.table_direction'") && Contains("parallel"));
+  // validate()'s finding named by the key it is about, with that key's value.
+  CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 0]"),
+             StartsWith("m.toml: key 'kinematics.tilt_direction'") && Contains("finite unit vector") && Contains("[0, 0, 0]"));
+  CHECK_THAT(error("[kinematics]\ntable_pivot_mm = [0, 0, nan]"), StartsWith("m.toml: key 'kinematics.table_pivot_mm'"));
   CHECK_THAT(error("[kinematics]\nchian = \"A-C\""), StartsWith("m.toml: key 'kinematics.chian': unknown key"));
   CHECK_THAT(error("[nc.base.G60]\nx_mm = 1"), StartsWith("m.toml: key 'nc.base.G60'"));
   CHECK_THAT(error("[nc\n"), StartsWith("m.toml: ") && Contains("line 1"));

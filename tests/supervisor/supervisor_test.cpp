@@ -70,6 +70,20 @@ TEST_CASE("config errors name the file and the key and the value") {
   CHECK(error_of(config_text("", "keepalive_s = 1\n")).find("key 'mqtt.keepalive_s', value 1: not a whole number from 5") != std::string::npos);
   CHECK(error_of(config_text("colour = 1\n")).find("key 'signals.colour', value 1: unknown key") != std::string::npos);
   CHECK(error_of(config_text("", "password_file = \"pw\"\n")).find("needs mqtt.username") != std::string::npos);
+  // The key at fault: machine_id where it makes the topic prefix, mqtt.prefix where that is given.
+  std::string id = config_text();
+  id.replace(id.find("dmu-1"), 5, "dmu/1#");
+  CHECK(error_of(id).find("key 'machine_id', value \"dmu/1#\": must not contain # or +") != std::string::npos);
+  CHECK(error_of(config_text("", "prefix = \"alc/#\"\n")).find("key 'mqtt.prefix'") != std::string::npos);
+  // An input named like an error would be an output of every scenario CSV made of the run.
+  std::string e_input = config_text();
+  e_input.replace(e_input.find("\"T_WS\""), 6, "\"E_X0C\"");
+  CHECK(error_of(e_input).find("key 'signals.inputs'") != std::string::npos);
+  CHECK(error_of(e_input).find("'E_X0C' starts with E_") != std::string::npos);
+  // A combination the controller refuses: named by the option and its value.
+  std::string zero = config_text();
+  zero.replace(zero.find("cp = 6.5"), 8, "cp = 0");
+  CHECK(error_of(zero).find("invalid parameters: cp = 0 (cp_duration_s = 0): must be positive") != std::string::npos);
   // The same names and units as alc replay: interval in hours.
   const auto c = supervisor::parse_supervisor_config(config_text(), "/tmp/s.toml");
   CHECK(c.parameters.post_cp_interval_s == 7200.0);
