@@ -1,6 +1,7 @@
 #include "runtime/run.hpp"
 
 #include <cmath>
+#include <tuple>
 
 #include "common/log.hpp"
 #include "runtime/run_state.hpp"
@@ -123,6 +124,20 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
   if (found->config_json != record.config_json)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
                         "' was started with other parameters: " + config_difference(found->config_json, record.config_json));
+  // Other channels (the supervisor's [signals] changed, another file under the same name): say which.
+  const auto names = [](const std::vector<std::string>& v) {
+    std::string t;
+    for (const auto& n : v) t += (t.empty() ? "" : ", ") + n;
+    return "[" + t + "]";
+  };
+  for (const auto& [kind, stored, given] :
+       {std::tuple{"inputs", &found->input_names, &record.input_names},
+        std::tuple{"outputs", &found->output_names, &record.output_names},
+        std::tuple{"offsets", &found->offset_names, &record.offset_names}})
+    if (*stored != *given)
+      throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
+                          "' was recorded with other " + kind + ": stored " + names(*stored) + ", given " +
+                          names(*given));
   run_ = found->run_id;
   // The latest snapshot that decodes (format, checksum): a damaged later one is named and skipped, a
   // run without any usable snapshot is refused unchanged.

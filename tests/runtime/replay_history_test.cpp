@@ -13,6 +13,7 @@
 #include "nc_interface/jsonl.hpp"
 #include "runtime/history_recorder.hpp"
 #include "runtime/replay.hpp"
+#include "runtime/run.hpp"
 #include "scenarios/load_cases.hpp"
 #include "storage/history_reader.hpp"
 
@@ -296,4 +297,30 @@ TEST_CASE("replay history: a model parameter set stores the first probe time its
     CHECK(m.window_end_s == m.time_s);
   }
   CHECK(limited.back().window_start_s == limited.back().time_s - 16 * 3600.0);  // the window took over
+}
+
+TEST_CASE("run lifecycle: a resume with other channels is refused naming them, stored and given") {
+  // The supervisor's case: the same parameters, but [signals] inputs changed between two starts.
+  const TempDir dir;
+  const auto file = dir.path / "h.sqlite";
+  storage::RunRecord record;
+  record.source = "supervisor dmu-1";
+  record.config_json = R"({"parameters":{"cp_duration_s":23400.0}})";
+  record.input_names = {"T_ENV", "T_WS"};
+  record.output_names = {"E_X0C"};
+  {
+    storage::HistoryWriter writer(file);
+    const RunLifecycle begun(writer, record, 3600.0);
+    REQUIRE(begun.run() == 1);
+  }
+  storage::HistoryWriter writer(file);
+  record.input_names = {"T_ENV", "T_WS", "T_SP"};
+  CHECK_THROWS_WITH(RunLifecycle(writer, file, record, 3600.0, RunLifecycle::Resume{}),
+                    file.string() + ": run 1 of 'supervisor dmu-1' was recorded with other inputs: stored [T_ENV, "
+                                    "T_WS], given [T_ENV, T_WS, T_SP]");
+  record.input_names = {"T_ENV", "T_WS"};
+  record.output_names = {"E_Y0C"};
+  CHECK_THROWS_WITH(RunLifecycle(writer, file, record, 3600.0, RunLifecycle::Resume{}),
+                    Catch::Contains("other outputs: stored [E_X0C], given [E_Y0C]"));
+  CHECK(storage::HistoryReader(file).runs().size() == 1);
 }
