@@ -67,12 +67,14 @@ std::size_t invalid_utf8_at(std::string_view text) {
   return std::string_view::npos;
 }
 
-// `text` with every byte that is not well-formed UTF-8 shown as \xNN (for messages).
-std::string escape_invalid_utf8(std::string_view text) {
+// `text` with every byte that is not well-formed UTF-8, and every control character (a NUL, a stray
+// CR), shown as \xNN: a message prints what the file holds, whole, on one line.
+std::string printable(std::string_view text) {
   std::string out;
   for (std::size_t i = 0; i < text.size();) {
     const std::size_t n = utf8_length(text, i);
-    if (n > 0) {
+    const auto b0 = static_cast<unsigned char>(text[i]);
+    if (n > 0 && b0 >= 0x20 && b0 != 0x7F) {
       out.append(text.substr(i, n));
       i += n;
     } else {
@@ -90,7 +92,7 @@ std::string compose(const std::string& file, std::size_t line, std::size_t colum
                     const std::string& column_name, const std::string& value, const std::string& reason) {
   std::string s = location_prefix(file, line, column) + ": " + reason;
   if (!column_name.empty()) s += " (column '" + column_name + "')";
-  if (!value.empty() || column > 0) s += ": value '" + shorten(value) + "'";
+  if (!value.empty() || column > 0) s += ": value '" + printable(shorten(value)) + "'";
   return s;
 }
 
@@ -189,7 +191,7 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
     if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", header_text, "empty column name in header");
     // Names go into JSON (reports, the history's run record): refuse what is not UTF-8 here.
     if (const std::size_t at = invalid_utf8_at(name); at != std::string::npos)
-      throw ScenarioCsvError(source, header_line, c + 1, "", escape_invalid_utf8(name),
+      throw ScenarioCsvError(source, header_line, c + 1, "", printable(name),
                              "column name is not UTF-8 (byte " + std::to_string(at + 1) + ")");
     if (!seen.insert(name).second) {
       std::size_t first = 0;

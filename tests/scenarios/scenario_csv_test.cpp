@@ -258,6 +258,16 @@ TEST_CASE("scenario CSV: a column name that is not UTF-8 is rejected at read tim
   CHECK(parse("time_s,T_\xC2\xB0" "C,E_X0C\n0,1,2\n60,1,2\n").input_names[0] == "T_\xC2\xB0" "C");
 }
 
+TEST_CASE("scenario CSV: a bad cell is quoted whole on one line, control characters and bytes not UTF-8 escaped") {
+  // A NUL cut the message at the cell before, a stray CR moved the cursor back over it.
+  CHECK(std::string(rejected(std::string("time_s,T,E_X0C\n0,20\0" "5,1\n", 22)).what()) ==
+        "case.csv:2:2: not a number (column 'T'): value '20\\x005'");
+  CHECK(std::string(rejected("time_s,T,E_X0C\n0,20.5\r7,1\n").what()) ==
+        "case.csv:2:2: not a number (column 'T'): value '20.5\\x0D7'");
+  CHECK(std::string(rejected("time_s,T,E_X0C\n0,2\xFF,1\n").what()) ==
+        "case.csv:2:2: not a number (column 'T'): value '2\\xFF'");
+}
+
 TEST_CASE("scenario CSV: time not strictly increasing is rejected at its line and column") {
   const auto equal = rejected("T,time_s,E_X0C\n1,0,2\n1,60,\n1,60,\n");
   CHECK(equal.line == 4);
