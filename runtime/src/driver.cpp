@@ -12,10 +12,13 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// An event told at info level (phase changes, rejected models, the guard's decisions).
+// An event told at info level, of a sample or a probe: phase changes (with the phases), rejected
+// models, the guard's decisions (with the output).
 void log_event(const ControllerEvent& e) {
-  log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), e.output.empty() ? "" : e.output + ": ",
-                            e.reason);
+  std::string what = e.output.empty() ? "" : e.output + ": ";
+  if (e.type == ControllerEvent::Type::PhaseChange)
+    what = std::string(to_string(e.from)) + " -> " + std::string(to_string(e.to)) + ": ";
+  log::get("runtime")->info("t = {} s: {}: {}{}", e.time_s, to_string(e.type), what, e.reason);
 }
 }  // namespace
 
@@ -84,7 +87,8 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
                              std::find(implausible_logged_.begin(), implausible_logged_.end(), e.output) ==
                                  implausible_logged_.end();
     if (first_fault) implausible_logged_.push_back(e.output);
-    if (e.type == ControllerEvent::Type::Guard) {
+    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
+        e.type == ControllerEvent::Type::Guard) {
       log_event(e);
       continue;
     }

@@ -72,3 +72,14 @@ TEST_CASE("alc --log-level info replay: the guard's decisions are logged with th
   CHECK(r.err.find(": guard: guard") == std::string::npos);
   CHECK(r.err.find(": guard: E_Z0T: guard:") == std::string::npos);
 }
+
+TEST_CASE("alc --log-level info replay: every phase change is logged with its phases, also those a probe brings") {
+  const alc_test::CliRun r = run("--log-level info replay --case A");
+  REQUIRE(r.exit_code == 0);
+  // The end of CP comes with a sample; a breach (Post-CP -> NG) and the update after NG with probes.
+  CHECK_THAT(r.err, Catch::Contains("[info] [runtime] t = 23400 s: phase_change: CP -> Post-CP: calibration phase complete"));
+  CHECK_THAT(r.err, Catch::Contains("s: phase_change: Post-CP -> NG: ACL breach on E_"));
+  CHECK_THAT(r.err, Catch::Contains("s: phase_change: NG -> Post-CP: NG measurements complete"));
+  const alc_test::CliRun quiet = run("replay --case A");
+  CHECK(quiet.err.empty());
+}

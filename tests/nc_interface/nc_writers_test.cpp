@@ -883,3 +883,28 @@ TEST_CASE("machine config: the shipped example reads and equals the defaults", "
   CHECK(c.nc.linuxcnc_interval_parameter == d.nc.linuxcnc_interval_parameter);
   CHECK_THROWS_WITH(read_machine_config("/nonexistent/m.toml"), Contains("/nonexistent/m.toml") && Contains("cannot open"));
 }
+
+TEST_CASE("README: the alc nc example gives the program the README shows", "[nc][cli]") {
+  // The README's "NC output" section: the JSON lines after "One command per line:", then the
+  // linuxcnc program it says they give. A change of either (or of the limits) must keep them true.
+  const std::string readme = alc_test::slurp(std::filesystem::path(ALC_SOURCE_DIR) / "README.md");
+  const auto block_after = [&](const std::string& marker) {
+    const auto at = readme.find(marker);
+    REQUIRE(at != std::string::npos);
+    const auto open = readme.find("```\n", at);
+    REQUIRE(open != std::string::npos);
+    const auto close = readme.find("```\n", open + 4);
+    REQUIRE(close != std::string::npos);
+    return readme.substr(open + 4, close - open - 4);
+  };
+  const std::string commands = block_after("One command per line:");
+  const std::string program = block_after("gives with `--dialect linuxcnc`");
+  REQUIRE(commands.find("axis_offsets") != std::string::npos);
+  const auto dir = alc::nc::test::fresh_dir("readme_example");
+  const auto in = (dir / "commands.jsonl").string();
+  std::ofstream(in) << commands;
+  const auto r = alc_test::run_alc("nc --dialect linuxcnc --in " + in, "readme_example");
+  INFO(r.err);
+  CHECK(r.exit_code == 0);
+  CHECK(r.out == program);
+}
