@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "common/number_text.hpp"
+
 #include "nc_interface/nc_number.hpp"
 
 namespace alc::nc {
@@ -206,18 +208,18 @@ std::string validate(const NcCommand& command) {
         {"c_deg", o->c_deg}};
     for (const auto& [name, value] : fields)
       if (value && (!std::isfinite(*value) || std::abs(*value) > kMaxNcMagnitude))
-        return std::string(name) + " must be finite and within ±1e6, got " + std::to_string(*value);
+        return std::string(name) + " must be finite and within ±1e6, got " + common::shortest_text(*value);
     if (!finite_or_empty(o->time_s)) return "time_s must be finite";
     if (const auto& r = o->non_compensable_um_per_m; r && (!std::isfinite(*r) || *r < 0.0 || *r > kMaxNcMagnitude))
-      return "non_compensable_um_per_m must be >= 0, finite and within 1e6, got " + std::to_string(*r);
+      return "non_compensable_um_per_m must be >= 0, finite and within 1e6, got " + common::shortest_text(*r);
     return {};
   }
   const auto& p = std::get<ProbeInterval>(command);
   if (p.minutes && (!std::isfinite(*p.minutes) || *p.minutes <= 0.0 || *p.minutes > kMaxNcMagnitude))
-    return "minutes must be > 0 and finite (null for never), got " + std::to_string(*p.minutes);
+    return "minutes must be > 0 and finite (null for never), got " + common::shortest_text(*p.minutes);
   // 0.0001 min is the NC resolution: a smaller interval would be written as 0 = never.
   if (p.minutes && std::llround(*p.minutes * 1e4) == 0)
-    return "minutes must be at least 0.0001 (0 in the NC means never), got " + std::to_string(*p.minutes);
+    return "minutes must be at least 0.0001 (0 in the NC means never), got " + common::shortest_text(*p.minutes);
   if (!finite_or_empty(p.time_s)) return "time_s must be finite";
   return {};
 }

@@ -5,18 +5,14 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "common/toml_text.hpp"
+
 #include "common/input_file.hpp"
 
 namespace alc::nc {
 namespace {
 
-std::string node_text(const toml::node* node) {
-  if (!node) return "";
-  if (const auto* text = node->as_string()) return "\"" + text->get() + "\"";
-  std::ostringstream s;
-  node->visit([&s](const auto& n) { s << n; });
-  return s.str();
-}
+std::string node_text(const toml::node* node) { return common::toml_value_text(node); }
 
 // Reads one table; remembers which keys were read so that unknown keys can be reported.
 class Table {

@@ -5,6 +5,8 @@
 #include <stdexcept>
 
 #include "common/number_text.hpp"
+
+#include "common/number_text.hpp"
 #include "nc_interface/nc_number.hpp"
 
 namespace alc::nc {
@@ -46,9 +48,9 @@ std::string validate(const SafetyLimits& limits) {
   const AxisOffsets zero;
   for (const AxisValue& a : axes(limits, zero)) {
     if (!(a.max_offset > 0.0) || !std::isfinite(a.max_offset))
-      return std::string("max_offset of axis ") + a.axis + " must be > 0 and finite, got " + std::to_string(a.max_offset);
+      return std::string("max_offset of axis ") + a.axis + " must be > 0 and finite, got " + common::shortest_text(a.max_offset);
     if (!(a.max_step > 0.0) || !std::isfinite(a.max_step))
-      return std::string("max_step of axis ") + a.axis + " must be > 0 and finite, got " + std::to_string(a.max_step);
+      return std::string("max_step of axis ") + a.axis + " must be > 0 and finite, got " + common::shortest_text(a.max_step);
   }
   if (limits.max_split_steps < 1 || limits.max_split_steps > 1000)
     return "max_split_steps must be 1…1000, got " + std::to_string(limits.max_split_steps);

@@ -238,7 +238,7 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
                              counts + ", this cell is beyond the last column '" + header.back() + "'");
     }
     for (std::size_t c = 0; c < cells.size(); ++c) {
-      const std::string& cell = cells[c];
+      const std::string cell = unquote(cells[c]);  // "20.5", as a spreadsheet writes it, is 20.5
       if (cell.empty()) {
         if (roles[c] == Role::Output) {
           outputs.push_back(nan);

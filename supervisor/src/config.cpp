@@ -7,6 +7,8 @@
 #include <sstream>
 #include <toml++/toml.h>
 
+#include "common/toml_text.hpp"
+
 #include "common/number_text.hpp"
 
 namespace alc::supervisor {
@@ -17,13 +19,7 @@ ConfigError::ConfigError(const std::string& file, const std::string& key, const 
 
 namespace {
 
-std::string node_text(const toml::node* node) {
-  if (!node) return "";
-  if (const auto* s = node->as_string()) return "\"" + s->get() + "\"";
-  std::ostringstream o;
-  node->visit([&o](const auto& n) { o << n; });
-  return o.str();
-}
+std::string node_text(const toml::node* node) { return common::toml_value_text(node); }
 
 // One table of the file; remembers the keys read so that unknown ones are reported.
 class Section {

@@ -211,6 +211,7 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"probe_interval","minutes":-5})");
   CHECK(e.field == "minutes");
   CHECK(e.value == "-5");
+  CHECK_THAT(e.what(), Catch::Contains("got -5 (field 'minutes')"));  // not -5.000000
   e = fails(R"({"type":"probe_interval","minutes":1e400})");
   CHECK(e.line == 1);
   e = fails(R"({"type":"spindle","rpm":5})");
@@ -538,6 +539,8 @@ c_deg = 0.002
     return "no error";
   };
   CHECK(error("[limits.max_step]\nx_mm = -1") == "m.toml: key 'limits.max_step.x_mm': must be > 0: value '-1'");
+  // A value as typed, not toml++'s 17 digits (-0.10000000000000001).
+  CHECK(error("[limits.max_offset]\nx_mm = -0.1") == "m.toml: key 'limits.max_offset.x_mm': must be > 0: value '-0.1'");
   CHECK(error("[limits]\non_step_violation = \"clamp\"") ==
         "m.toml: key 'limits.on_step_violation': must be \"refuse\" or \"split\": value '\"clamp\"'");
   CHECK(error("[nc]\nwork_offset = \"G54.1\"") == "m.toml: key 'nc.work_offset': must be one of G54 … G59: value '\"G54.1\"'");

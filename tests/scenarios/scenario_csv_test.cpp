@@ -258,6 +258,18 @@ TEST_CASE("scenario CSV: a column name that is not UTF-8 is rejected at read tim
   CHECK(parse("time_s,T_\xC2\xB0" "C,E_X0C\n0,1,2\n60,1,2\n").input_names[0] == "T_\xC2\xB0" "C");
 }
 
+TEST_CASE("scenario CSV: quoted cells, as a spreadsheet writes them, read as their contents") {
+  const Scenario q = parse("\"time_s\",\"T\",\"E_X0C\"\n\"0\",\"20.5\",\"1.25\"\n\"60\",\"21\",\"\"\n");
+  REQUIRE(q.time_s == std::vector<double>{0.0, 60.0});
+  CHECK(q.inputs(0, 0) == 20.5);
+  CHECK(q.outputs(0, 0) == 1.25);
+  CHECK(std::isnan(q.outputs(1, 0)));  // "" is no measurement, as an empty cell
+  // Inside the quotes the number must still be whole: no blanks, no text.
+  CHECK(rejected("time_s,T,E_X0C\n0,\"20.5x\",1\n").column == 2);
+  CHECK(std::string(rejected("time_s,T,E_X0C\n0,\"\",1\n").what()) ==
+        "case.csv:2:2: empty cell: only measured-error (E_) columns may be empty (column 'T'): value ''");
+}
+
 TEST_CASE("scenario CSV: a bad cell is quoted whole on one line, control characters and bytes not UTF-8 escaped") {
   // A NUL cut the message at the cell before, a stray CR moved the cursor back over it.
   CHECK(std::string(rejected(std::string("time_s,T,E_X0C\n0,20\0" "5,1\n", 22)).what()) ==

@@ -1,0 +1,25 @@
+#include "common/toml_text.hpp"
+
+#include <sstream>
+
+#include "common/number_text.hpp"
+
+namespace alc::common {
+
+std::string toml_value_text(const toml::node* node) {
+  if (!node) return "";
+  if (const auto* s = node->as_string()) return "\"" + s->get() + "\"";
+  if (const auto* f = node->as_floating_point()) return shortest_text(f->get());
+  if (const auto* i = node->as_integer()) return std::to_string(i->get());
+  if (const auto* b = node->as_boolean()) return b->get() ? "true" : "false";
+  if (const auto* a = node->as_array()) {
+    std::string text = "[";
+    for (std::size_t k = 0; k < a->size(); ++k) text += (k ? ", " : "") + toml_value_text(a->get(k));
+    return text + "]";
+  }
+  std::ostringstream o;  // tables, dates and times: as toml++ writes them
+  node->visit([&o](const auto& n) { o << n; });
+  return o.str();
+}
+
+}  // namespace alc::common
