@@ -33,6 +33,9 @@ double parse_number(std::string_view what, std::string_view text, bool allow_inf
   double v = 0.0;
   const char* end = text.data() + text.size();
   const auto [ptr, ec] = std::from_chars(text.data(), end, v, std::chars_format::general);
+  if (ec == std::errc::result_out_of_range && ptr == end)  // 1e999, 1e-400: a number, but not a double's
+    throw std::invalid_argument(std::string(what) + ": '" + std::string(text) +
+                                "' is out of the range of a double (about 2.2e-308 to 1.8e308)");
   if (ec != std::errc() || ptr != end || !std::isfinite(v)) refuse();
   return v;
 }

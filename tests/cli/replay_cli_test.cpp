@@ -145,6 +145,9 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"replay --case A --db x.sqlite --stop-at nan", "--stop-at: 'nan' is not a number >= 0"},
       {"replay --case A --db x.sqlite --stop-at -inf", "--stop-at: '-inf' is not a number >= 0"},
       {"replay --case A --db x.sqlite --stop-at -1", "--stop-at: '-1' is not a number >= 0"},
+      // A number, but not one a double holds: said so, not "not a number".
+      {"replay --case A --acl-ang 1e-400", "--acl-ang: '1e-400' is out of the range of a double"},
+      {"replay --case A --interval 1e999", "--interval: '1e999' is out of the range of a double"},
       {"replay --case A --db x.sqlite --stop-at inf", "--stop-at: 'inf' is not a number >= 0"},
       {"replay --case A --kill-at 1h", "--kill-at: '1h' is not a number >= 0"},
       {"replay --case A --cp 0x10", "cp: '0x10' is not a number >= 0"},

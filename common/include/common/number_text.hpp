@@ -16,7 +16,8 @@ std::string shortest_text(double value);
 // The one strict reader of numbers given as text by a user (command-line options, a study grid's
 // values). A decimal number >= 0: digits, an optional fraction and exponent, nothing else ("6.5",
 // ".5", "1e3"); no sign, no hex ("0x10"), no "nan"; "inf" (or "Inf") only when allow_inf. Throws
-// std::invalid_argument "<what>: '<text>' is not a number >= 0[ or inf]".
+// std::invalid_argument "<what>: '<text>' is not a number >= 0[ or inf]", or "... is out of the range
+// of a double" for a number that underflows or overflows (1e-400, 1e999).
 double parse_number(std::string_view what, std::string_view text, bool allow_inf);
 
 // A whole number from lo to hi, decimal digits only (no sign, fraction, exponent or blank). Throws
