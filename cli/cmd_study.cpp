@@ -283,13 +283,16 @@ void run_study_command(const StudyArgs& a) {
     const storage::StudyHeader now = info.header();
     if (stored && !a.resume)
       throw UsageError(a.db + " holds a study already: continue it with --resume, or give another --db");
-    if (!stored && a.resume) throw UsageError(a.db + " holds no study to resume");
+    // The empty file of a run killed before its first row (a requeued SLURM task resumes it): begin.
+    const bool empty = !stored && storage::StudyStore::holds_nothing(a.db);
+    if (!stored && a.resume && !empty) throw UsageError(a.db + " holds no study to resume");
     if (stored) {
       const std::string diff = study::difference(*stored, now);
       if (!diff.empty()) throw UsageError("cannot resume the study in " + a.db + ": " + diff);
       rows = storage::StudyStore::rows_of(a.db);
     }
-    store = std::make_unique<storage::StudyStore>(a.db, now);
+    store = std::make_unique<storage::StudyStore>(
+        a.db, now, stored ? storage::StudyStore::Existing::Continue : storage::StudyStore::Existing::Refuse);
     for (const auto& r : rows) done.emplace(r.set_index, r.case_index);
   }
   const std::size_t total = study::shard_rows(cases, info.sets, shard, shards);  // this shard's rows
@@ -371,12 +374,13 @@ void run_merge(const MergeArgs& a) {
   }
   std::error_code ec;
   if (fs::exists(a.out, ec)) throw UsageError("--out: " + a.out + " exists; merge writes a new file");
-  storage::StudyStore out(a.out, *first);
+  storage::StudyStore out(a.out, *first, storage::StudyStore::Existing::Refuse);
   out.add(sorted(std::move(rows)));
   std::cerr << "merged " << a.shards.size() << " shards into " << a.out << ": " << info.runs() << " rows\n";
 }
 
 void run_report(const ReportArgs& a) {
+  if (std::error_code missing; !fs::exists(a.file, missing)) throw UsageError(a.file + ": no such file");
   const auto h = storage::StudyStore::header_of(a.file);
   if (!h) throw UsageError(a.file + ": holds no study");
   const study::StudyInfo info = study::StudyInfo::of(*h);

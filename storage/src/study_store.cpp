@@ -1,6 +1,7 @@
 #include "storage/study_store.hpp"
 
 #include <chrono>
+#include <sqlite3.h>
 
 #include "sqlite_db.hpp"
 #include "storage/schema.hpp"
@@ -43,14 +44,38 @@ struct StudyStore::Impl {
   std::optional<detail::Statement> insert;
 };
 
+// No bytes, or SQLite's header with no table and no application_id (what a study killed before its
+// first commit leaves).
+bool StudyStore::holds_nothing(const fs::path& file) {
+  std::error_code ec;
+  const auto size = fs::file_size(file, ec);
+  if (ec) return false;
+  if (size == 0) return true;
+  sqlite3* h = nullptr;
+  bool nothing = false;
+  if (sqlite3_open_v2(file.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+    sqlite3_stmt* st = nullptr;
+    if (sqlite3_prepare_v2(h,
+                           "SELECT (SELECT count(*) FROM sqlite_schema) = 0 AND "
+                           "(SELECT application_id FROM pragma_application_id) = 0",
+                           -1, &st, nullptr) == SQLITE_OK &&
+        sqlite3_step(st) == SQLITE_ROW)
+      nothing = sqlite3_column_int(st, 0) != 0;
+    sqlite3_finalize(st);
+  }
+  sqlite3_close_v2(h);
+  return nothing;
+}
+
 std::optional<StudyHeader> StudyStore::header_of(const fs::path& file) {
   std::error_code ec;
-  if (!fs::exists(file, ec)) return std::nullopt;
+  if (!fs::exists(file, ec) || holds_nothing(file)) return std::nullopt;
   auto db = open_read(file);
   return read_header(*db);
 }
 
 std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
+  if (holds_nothing(file)) return {};
   auto db = open_read(file);
   std::vector<StudyRowRecord> rows;
   if (!db->table_exists("study_rows")) return rows;
@@ -72,14 +97,26 @@ std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
   return rows;
 }
 
-StudyStore::StudyStore(const fs::path& file, const StudyHeader& header) : impl_(std::make_unique<Impl>()) {
+StudyStore::StudyStore(const fs::path& file, const StudyHeader& header, Existing existing)
+    : impl_(std::make_unique<Impl>()) {
   WriterOptions options;
   options.create_directories = true;
   impl_->db = detail::open_for_writing(file, options);
   auto& db = *impl_->db;
   db.exec("BEGIN IMMEDIATE");
   try {
-    if (!read_header(db)) {
+    // Judged again under the write lock: another process may have begun a study in the file since the
+    // caller read header_of() (two shards given one --db, say); its rows must not mix with ours.
+    if (const auto stored = read_header(db)) {
+      if (existing == Existing::Refuse)
+        throw StorageError(StorageErrorKind::InvalidArgument, file,
+                           "another process began a study in this file meanwhile; give each run its own --db");
+      if (stored->grid_json != header.grid_json || stored->cases_json != header.cases_json ||
+          stored->software_version != header.software_version || stored->shard != header.shard ||
+          stored->set_count != header.set_count)
+        throw StorageError(StorageErrorKind::InvalidArgument, file,
+                           "holds another study (grid, cases, shard or version differ) than the one to continue");
+    } else {
       const double now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
       detail::Statement st(db,
                            "INSERT INTO studies (study_id, grid_json, cases_json, software_version, shard, set_count, "

@@ -417,7 +417,7 @@ TEST_CASE("figures: alc study report --svg and a --heatmap-cp not in the grid", 
   const fs::path db = dir / "study.sqlite";
   fs::remove(db);
   {
-    alc::storage::StudyStore store(db, info.header());
+    alc::storage::StudyStore store(db, info.header(), alc::storage::StudyStore::Existing::Refuse);
     store.add(rows);
   }
   const fs::path out = dir / "svg";

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <fstream>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -99,6 +100,24 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     REQUIRE(res.exit_code == 0);
     CHECK_THAT(res.err, Catch::Contains(left + " rows reused, " + std::to_string(20 - std::stoi(left)) + " computed"));
     CHECK(slurp(csv3) == text);
+  }
+  SECTION("the empty file a run killed before its first row leaves: --resume begins the study there") {
+    const fs::path empty = dir() / "killed_early.sqlite", csv4 = dir() / "from_empty.csv";
+    fs::remove(empty);
+    std::ofstream(empty).flush();  // 0 bytes (SQLite's header alone is judged alike: storage tests)
+    const auto res = run_alc("study --grid " + grid.string() + " " + files() + " --db " + empty.string() +
+                                 " --resume --csv " + csv4.string(),
+                             "study_cli");
+    INFO(res.err);
+    REQUIRE(res.exit_code == 0);
+    CHECK_THAT(res.err, Catch::Contains("0 rows reused, 20 computed"));
+    CHECK(slurp(csv4) == text);
+    // A file that is missing is still no study to resume.
+    const auto missing = run_alc("study --grid " + grid.string() + " " + files() + " --db " +
+                                     (dir() / "missing.sqlite").string() + " --resume",
+                                 "study_cli");
+    CHECK(missing.exit_code == 2);
+    CHECK_THAT(missing.err, Catch::Contains("holds no study to resume"));
   }
   SECTION("a study file is not overwritten, and resumes only the same study") {
     auto again = run_alc("study --grid " + grid.string() + " " + files() + " --db " + db.string(), "study_cli");

@@ -36,15 +36,22 @@ struct StudyRowRecord {
 
 class StudyStore {
  public:
-  // The study a file holds; nullopt for a file without one (a new file, or a history without a study).
+  // The study a file holds; nullopt for a file without one (a new file, a history without a study, or
+  // the empty file of a study killed before its first commit).
   // Throws StorageError for a file that is not an ALC database.
   static std::optional<StudyHeader> header_of(const std::filesystem::path& file);
+  // Whether `file` is the empty file of a study killed before its first commit (no bytes, or an SQLite
+  // header without tables): a study may begin there, also under --resume (with nothing to reuse).
+  static bool holds_nothing(const std::filesystem::path& file);
   // Every row of the file's study, ordered by set then case.
   static std::vector<StudyRowRecord> rows_of(const std::filesystem::path& file);
 
   // Opens `file` for writing (created with its directories if missing) and creates the study if it
-  // has none; a file that holds a study must hold this one (the caller compares header_of() first).
-  StudyStore(const std::filesystem::path& file, const StudyHeader& header);
+  // has none. A study already in the file (judged under the write lock, so also one that another
+  // process began after the caller's header_of()) is refused with StorageError when `existing` is
+  // Refuse, and must be this very one (the same header, field for field) when it is Continue.
+  enum class Existing { Refuse, Continue };
+  StudyStore(const std::filesystem::path& file, const StudyHeader& header, Existing existing);
   ~StudyStore();
   StudyStore(const StudyStore&) = delete;
   StudyStore& operator=(const StudyStore&) = delete;

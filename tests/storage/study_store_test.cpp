@@ -1,0 +1,61 @@
+// The study file's store: a study begun by another process after our look is judged under the write
+// lock, and the empty file of a study killed before its first commit holds nothing.
+#include <catch2/catch.hpp>
+
+#include "storage/storage_error.hpp"
+#include "storage/study_store.hpp"
+#include "storage_test_support.hpp"
+
+using namespace alc::storage;
+
+namespace {
+StudyHeader header(const std::string& grid, const std::string& shard = "all") {
+  StudyHeader h;
+  h.grid_json = grid;
+  h.cases_json = R"([{"name":"A"}])";
+  h.software_version = "alc test";
+  h.shard = shard;
+  h.set_count = 2;
+  return h;
+}
+}  // namespace
+
+TEST_CASE("study store: a study another process began after our look is refused, not mixed with ours") {
+  const test::ScratchDir dir;
+  const auto file = dir / "study.sqlite";
+  // Both looked (header_of: none), then the other one began first.
+  REQUIRE_FALSE(StudyStore::header_of(file));
+  { const StudyStore other(file, header(R"({"acl-ang":[16]})", "2/2"), StudyStore::Existing::Refuse); }
+  CHECK_THROWS_WITH(StudyStore(file, header(R"({"acl-ang":[15]})", "1/2"), StudyStore::Existing::Refuse),
+                    Catch::Contains("another process began a study in this file meanwhile"));
+  // Continuing needs the very same study.
+  CHECK_THROWS_WITH(StudyStore(file, header(R"({"acl-ang":[15]})", "2/2"), StudyStore::Existing::Continue),
+                    Catch::Contains("holds another study"));
+  const StudyStore same(file, header(R"({"acl-ang":[16]})", "2/2"), StudyStore::Existing::Continue);
+  CHECK(StudyStore::header_of(file)->grid_json == R"({"acl-ang":[16]})");
+}
+
+TEST_CASE("study store: the empty file of a study killed before its first commit holds nothing, a study begins there") {
+  const test::ScratchDir dir;
+  const auto zero = dir / "zero.sqlite", bare = dir / "bare.sqlite", other = dir / "other.sqlite";
+  test::write_bytes(zero, "");
+  {
+    test::RawDb raw(bare);  // SQLite's header, no table: what a kill between open and schema leaves
+    REQUIRE(raw.exec("CREATE TABLE t (x); DROP TABLE t;") == SQLITE_OK);
+  }
+  {
+    test::RawDb raw(other);  // another program's database is not "nothing"
+    REQUIRE(raw.exec("CREATE TABLE t (x);") == SQLITE_OK);
+  }
+  for (const auto& f : {zero, bare}) {
+    INFO(f);
+    CHECK(StudyStore::holds_nothing(f));
+    CHECK_FALSE(StudyStore::header_of(f));
+    CHECK(StudyStore::rows_of(f).empty());
+    const StudyStore store(f, header("{}"), StudyStore::Existing::Refuse);
+    CHECK(StudyStore::header_of(f));
+  }
+  CHECK_FALSE(StudyStore::holds_nothing(other));
+  CHECK_THROWS_AS(StudyStore::header_of(other), StorageError);
+  CHECK_FALSE(StudyStore::holds_nothing(dir / "missing.sqlite"));
+}
