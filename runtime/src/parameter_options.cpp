@@ -11,7 +11,8 @@ namespace alc::runtime {
 namespace {
 
 constexpr std::string_view kNumber = "a number >= 0";
-constexpr std::string_view kNumberOrInf = "a number >= 0 or inf";
+constexpr std::string_view kPositive = "a number > 0";
+constexpr std::string_view kPositiveOrInf = "a number > 0 or inf";
 constexpr std::string_view kFlag = "true or false";
 
 [[noreturn]] void refuse(std::string_view name, std::string_view text, std::string_view values) {
@@ -28,20 +29,20 @@ bool parse_flag(std::string_view name, std::string_view text) {
 
 const std::vector<ParameterOption>& parameter_options() {
   static const std::vector<ParameterOption> options = {
-      {"cp", "h", kNumber, "Calibration phase length", Stage::Start, "cp_duration_s"},
-      {"cp-interval", "min", kNumber, "Probe interval during CP", Stage::Start, "cp_interval_s"},
-      {"interval", "h", kNumberOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"},
-      {"ng-interval", "min", kNumberOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"},
-      {"ng-meas", "-", kNumberOrInf, "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"},
-      {"update", "h", kNumberOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"},
-      {"acl-lin", "µm", kNumber, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"},
-      {"acl-ang", "µm/m", kNumber, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"},
-      {"window", "h", kNumberOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"},
+      {"cp", "h", kPositive, "Calibration phase length", Stage::Start, "cp_duration_s"},
+      {"cp-interval", "min", kPositive, "Probe interval during CP", Stage::Start, "cp_interval_s"},
+      {"interval", "h", kPositiveOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"},
+      {"ng-interval", "min", kPositiveOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"},
+      {"ng-meas", "-", "a whole number >= 0 or inf", "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"},
+      {"update", "h", kPositiveOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"},
+      {"acl-lin", "µm", kPositive, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"},
+      {"acl-ang", "µm/m", kPositive, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"},
+      {"window", "h", kPositiveOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"},
       {"since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"},
-      {"half-life", "h", kNumberOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"},
+      {"half-life", "h", kPositiveOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"},
       {"method", "-", "fixed-poles or output-error", "Identification route", Stage::Start, "method"},
       {"max-order", "-", "a whole number >= 1", "Highest number of poles per input tried", Stage::Start, "max_order"},
-      {"structure-refresh", "-", kNumberOrInf, "Data-span growth factor that triggers a structure search",
+      {"structure-refresh", "-", "a number >= 1 or inf", "Data-span growth factor that triggers a structure search",
        Stage::CpEnd, "structure_refresh"},
       {"no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"},
       {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"},
@@ -50,22 +51,22 @@ const std::vector<ParameterOption>& parameter_options() {
       {"uncertainty-fraction", "-", "a number > 0",
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL (above 1: a budget "
        "beyond the ACL)", Stage::CpEnd, "uncertainty_fraction"},
-      {"min-interval", "h", kNumber, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"},
-      {"max-interval", "h", kNumberOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
+      {"min-interval", "h", kPositive, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"},
+      {"max-interval", "h", kPositiveOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
        Stage::CpEnd, "max_interval_s"},
       {"guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
        Stage::CpEnd, "guard"},
-      {"plausible-lin", "µm", kNumberOrInf,
+      {"plausible-lin", "µm", kPositiveOrInf,
        "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"},
-      {"plausible-ang", "µm/m", kNumberOrInf,
+      {"plausible-ang", "µm/m", kPositiveOrInf,
        "A probe's angular error beyond ± this is a sensor fault: set aside for that output (inf: no limit)",
        Stage::Start, "plausible_angular_um_per_m"},
-      {"plausible-temp", "°C", kNumberOrInf,
+      {"plausible-temp", "°C", kPositiveOrInf,
        "A temperature input (T_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
        Stage::Start, "plausible_temperature_C"},
-      {"plausible-speed", "rpm", kNumberOrInf,
+      {"plausible-speed", "rpm", kPositiveOrInf,
        "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start, "plausible_speed_rpm"},
-      {"plausible-other", "-", kNumberOrInf,
+      {"plausible-other", "-", kPositiveOrInf,
        "Any other input (machine states, ...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
        Stage::Start, "plausible_other"},
   };
@@ -81,8 +82,19 @@ const ParameterOption* find_parameter_option(std::string_view name) {
 void set_parameter(AlcParameters& p, std::string_view name, std::string_view text) {
   const ParameterOption* o = find_parameter_option(name);
   if (!o) throw std::invalid_argument("'" + std::string(name) + "' is not a parameter option");
-  const auto number = [&](double scale) { return common::parse_number(name, text, false) * scale; };
-  const auto number_or_inf = [&](double scale) { return common::parse_number(name, text, true) * scale; };
+  // Each value within what its option takes (o->values), so that a grid is judged value by value
+  // before any run: "interval = [0]" is refused there, not found as error rows after the study.
+  const auto within = [&](double v) {
+    const std::string_view values = o->values;
+    const bool ok = values.rfind(kPositive, 0) == 0               ? v > 0.0
+                    : values.rfind("a number >= 1", 0) == 0       ? v >= 1.0
+                    : values.rfind("a whole number >= 0", 0) == 0 ? (std::isinf(v) || v == std::floor(v))
+                                                                   : true;
+    if (!ok) refuse(name, text, values);
+    return v;
+  };
+  const auto number = [&](double scale) { return within(common::parse_number(name, text, false)) * scale; };
+  const auto number_or_inf = [&](double scale) { return within(common::parse_number(name, text, true)) * scale; };
   if (name == "cp") p.cp_duration_s = number(3600.0);
   else if (name == "cp-interval") p.cp_interval_s = number(60.0);
   else if (name == "interval") p.post_cp_interval_s = number_or_inf(3600.0);

@@ -122,7 +122,7 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   CHECK_THAT(negative_seed.err, Catch::Matchers::Contains("--seed must be a whole number from 0 to 18446744073709551615, got '-1'"));
   const Run bad_refresh = alc("replay --case A --structure-refresh 0.5");
   CHECK(bad_refresh.exit_code == 2);
-  CHECK_THAT(bad_refresh.err, Catch::Matchers::Contains("structure_refresh = 0.5"));
+  CHECK_THAT(bad_refresh.err, Catch::Matchers::Contains("--structure-refresh: '0.5' is not a number >= 1 or inf"));
   const Run missing = alc("replay /nonexistent/rec.csv");
   CHECK(missing.exit_code == 1);
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
@@ -167,13 +167,16 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number >= 0 or inf"},
       // What the controller refuses is named by the option and the text given (the name of a grid key and
       // of the supervisor's [controller] key too, so without "--"), then by its field in the controller.
-      {"replay --case A --uncertainty-fraction 0",
-       "alc: error: invalid parameters: uncertainty-fraction = 0 (uncertainty_fraction = 0): must be positive"},
+      // A value its option never takes is refused by the option, as a grid refuses it before any run.
+      {"replay --case A --uncertainty-fraction 0", "alc: error: --uncertainty-fraction: '0' is not a number > 0"},
+      {"replay --case A --cp 0", "--cp: '0' is not a number > 0"},
+      {"replay --case A --interval 0", "--interval: '0' is not a number > 0 or inf"},
+      {"replay --case A --ng-meas 6.5", "--ng-meas: '6.5' is not a whole number >= 0 or inf"},
+      {"replay --case A --half-life 0", "--half-life: '0' is not a number > 0 or inf"},
       {"replay --case A --min-interval 2 --max-interval 1",
        "invalid parameters: max-interval = 1 (max_interval_s = 3600): must not be below min_interval_s"},
-      {"replay --case A --cp 0", "invalid parameters: cp = 0 (cp_duration_s = 0): must be positive and finite"},
-      {"replay --case A --half-life 0",
-       "invalid parameters: half-life = 0 (IdentificationOptions.forgetting_half_life_s = 0): must be > 0"},
+      {"replay --case A --cp 1 --cp-interval 90",
+       "invalid parameters: cp-interval = 90 (cp_interval_s = 5400): must not exceed cp_duration_s"},
       // A default that another option makes invalid: named with its default text.
       {"replay --case A --min-interval 20",
        "invalid parameters: max-interval = 12 (max_interval_s = 43200): must not be below min_interval_s"},

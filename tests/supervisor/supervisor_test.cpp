@@ -81,9 +81,10 @@ TEST_CASE("config errors name the file and the key and the value") {
   CHECK(error_of(e_input).find("key 'signals.inputs'") != std::string::npos);
   CHECK(error_of(e_input).find("'E_X0C' starts with E_") != std::string::npos);
   // A combination the controller refuses: named by the option and its value.
-  std::string zero = config_text();
-  zero.replace(zero.find("cp = 6.5"), 8, "cp = 0");
-  CHECK(error_of(zero).find("invalid parameters: cp = 0 (cp_duration_s = 0): must be positive") != std::string::npos);
+  std::string longer = config_text();
+  longer.replace(longer.find("cp = 6.5"), 8, "cp = 1\ncp-interval = 90");
+  CHECK(error_of(longer).find("invalid parameters: cp-interval = 90 (cp_interval_s = 5400): must not exceed") !=
+        std::string::npos);
   // The same names and units as alc replay: interval in hours.
   const auto c = supervisor::parse_supervisor_config(config_text(), "/tmp/s.toml");
   CHECK(c.parameters.post_cp_interval_s == 7200.0);
