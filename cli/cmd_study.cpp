@@ -272,6 +272,9 @@ void run_study_command(const StudyArgs& a) {
     return;
   }
   if (a.resume && a.db.empty()) throw UsageError("--resume needs --db");
+  // Before the rows are computed, not after (hours of work, lost without --db).
+  if (const std::string problem = a.csv.empty() ? "" : io::output_file_problem(a.csv); !problem.empty())
+    throw UsageError("--csv " + a.csv + ": " + problem);
 
   std::vector<storage::StudyRowRecord> rows;
   std::unique_ptr<storage::StudyStore> store;

@@ -104,6 +104,18 @@ std::string not_replaceable(const std::filesystem::path& path) {
 
 }  // namespace
 
+std::string output_file_problem(const std::filesystem::path& path) {
+  if (const std::string what = not_replaceable(path); !what.empty())
+    return "it is " + what + ", not a regular file; give a regular file or a new path";
+  const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) != 0) return "its directory " + quoted(dir) + " cannot be used: " + std::strerror(errno);
+  if (!S_ISDIR(st.st_mode)) return quoted(dir) + " is not a directory";
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    return "its directory " + quoted(dir) + " is not writable: " + std::strerror(errno);
+  return {};
+}
+
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
   if (const std::string what = not_replaceable(path); !what.empty())
     throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what +

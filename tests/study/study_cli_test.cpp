@@ -101,6 +101,15 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK_THAT(res.err, Catch::Contains(left + " rows reused, " + std::to_string(20 - std::stoi(left)) + " computed"));
     CHECK(slurp(csv3) == text);
   }
+  SECTION("--csv where it cannot be written is refused before any row is computed") {
+    const auto res = run_alc("study --grid " + grid.string() + " " + files() + " --csv " +
+                                 (dir() / "no_such_dir" / "rows.csv").string(),
+                             "study_cli");
+    CHECK(res.exit_code == 2);
+    CHECK_THAT(res.err, Catch::Contains("--csv ") && Catch::Contains("no_such_dir") &&
+                            Catch::Contains("No such file or directory"));
+    CHECK(res.err.find("computed") == std::string::npos);  // the progress line never came
+  }
   SECTION("the empty file a run killed before its first row leaves: --resume begins the study there") {
     const fs::path empty = dir() / "killed_early.sqlite", csv4 = dir() / "from_empty.csv";
     fs::remove(empty);

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <functional>
 #include <ostream>
+#include <string>
 #include <string_view>
 
 namespace alc::io {
@@ -16,6 +17,11 @@ namespace alc::io {
 // std::runtime_error says "cannot write 'PATH': " and the cause (no such directory, it is a
 // symbolic link, disk full).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);
+
+// Why write_file_atomically(path) would fail before it writes anything (for a check before long
+// work whose result goes there): `path` is not replaceable (above), or its directory is missing, not a
+// directory, or not writable. Empty when nothing is known to stand in the way.
+std::string output_file_problem(const std::filesystem::path& path);
 
 // The same for a text produced as a stream: `write` fills the stream. An exception from `write`
 // propagates as it is (after the temporary file is removed); a failed stream is a write error.
