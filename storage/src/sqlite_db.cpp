@@ -1,5 +1,7 @@
 #include "sqlite_db.hpp"
 
+#include <sys/stat.h>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +12,8 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <thread>
 
 #include "common/byte_codec.hpp"
@@ -185,10 +189,36 @@ void check_schema(Database& db, const fs::path& file, bool write, const HeaderFa
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-Database::Database(sqlite3* handle, fs::path file, int busy_timeout_ms)
-    : db_(handle), file_(std::move(file)), busy_timeout_ms_(busy_timeout_ms) {}
+namespace {
+std::mutex open_files_mutex;
+std::multiset<std::pair<std::uint64_t, std::uint64_t>> open_files;  // (device, inode) of every open Database
 
-Database::~Database() { sqlite3_close_v2(db_); }
+std::optional<std::pair<std::uint64_t, std::uint64_t>> identity_of(const fs::path& file) {
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0) return std::nullopt;
+  return std::pair<std::uint64_t, std::uint64_t>{st.st_dev, st.st_ino};
+}
+}  // namespace
+
+bool open_in_this_process(const fs::path& file) {
+  const auto id = identity_of(file);
+  const std::lock_guard<std::mutex> lock(open_files_mutex);
+  return id && open_files.count(*id) > 0;
+}
+
+Database::Database(sqlite3* handle, fs::path file, int busy_timeout_ms)
+    : db_(handle), file_(std::move(file)), busy_timeout_ms_(busy_timeout_ms), identity_(identity_of(file_)) {
+  if (!identity_) return;
+  const std::lock_guard<std::mutex> lock(open_files_mutex);
+  open_files.insert(*identity_);
+}
+
+Database::~Database() {
+  sqlite3_close_v2(db_);
+  if (!identity_) return;
+  const std::lock_guard<std::mutex> lock(open_files_mutex);
+  if (const auto it = open_files.find(*identity_); it != open_files.end()) open_files.erase(it);
+}
 
 void Database::fail(int rc, const std::string& what) {
   const int primary = rc & 0xff;
@@ -378,6 +408,9 @@ HeaderFacts inspect_header(const fs::path& file) {
     facts.empty = true;
     return facts;
   }
+  // Open here through SQLite already (a reader beside this process's writer): judged when it was
+  // first opened, and a descriptor of our own would drop the writer's locks when it closes.
+  if (open_in_this_process(file)) return facts;
   std::ifstream in(file, std::ios::binary);
   if (!in) throw StorageError(kind_of_errno(errno, StorageErrorKind::Io), file,
                               std::string("cannot open for reading: ") + std::strerror(errno));

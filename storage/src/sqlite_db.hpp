@@ -5,6 +5,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
+#include <utility>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -78,7 +80,15 @@ class Database {
   sqlite3* db_;
   std::filesystem::path file_;
   int busy_timeout_ms_;
+  std::optional<std::pair<std::uint64_t, std::uint64_t>> identity_;  // (device, inode) while open here
 };
+
+// Whether this process has `file` open through a Database now. POSIX advisory locks belong to the
+// process: closing any descriptor of a file drops every lock the process holds on it, SQLite's
+// included, and another process could then take the file from under a writer here (checkpoint and
+// delete the WAL it still writes to). Code that would open the file with a descriptor of its own
+// (inspect_header) must not do so while this is true.
+bool open_in_this_process(const std::filesystem::path& file);
 
 enum class OpenMode { Read, Write };
 
