@@ -31,7 +31,11 @@ void run_supervise(const std::string& file) {
       o.level = *level;
     }
     if (config.log.file) o.file = *config.log.file;
-    log::configure(o);
+    try {
+      log::configure(o);
+    } catch (const std::runtime_error& e) {  // a log file that cannot be opened: a configuration error
+      throw UsageError(file + ": key 'log.file': " + e.what());
+    }
   }
   std::signal(SIGTERM, on_stop_signal);
   std::signal(SIGINT, on_stop_signal);

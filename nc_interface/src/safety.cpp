@@ -5,8 +5,6 @@
 #include <stdexcept>
 
 #include "common/number_text.hpp"
-
-#include "common/number_text.hpp"
 #include "nc_interface/nc_number.hpp"
 
 namespace alc::nc {
@@ -51,6 +49,14 @@ std::string validate(const SafetyLimits& limits) {
       return std::string("max_offset of axis ") + a.axis + " must be > 0 and finite, got " + common::shortest_text(a.max_offset);
     if (!(a.max_step > 0.0) || !std::isfinite(a.max_step))
       return std::string("max_step of axis ") + a.axis + " must be > 0 and finite, got " + common::shortest_text(a.max_step);
+    // Below one tick of the NC (0.0001) every step the NC can take is refused: that axis would stay at
+    // zero for ever, without a word but the refusals.
+    if (a.max_step < 1.0 / kNcTicksPerUnit)
+      return std::string("max_step of axis ") + a.axis + " must be at least the NC resolution 0.0001, got " +
+             common::shortest_text(a.max_step);
+    if (a.max_offset < 1.0 / kNcTicksPerUnit)
+      return std::string("max_offset of axis ") + a.axis + " must be at least the NC resolution 0.0001, got " +
+             common::shortest_text(a.max_offset);
   }
   if (limits.max_split_steps < 1 || limits.max_split_steps > 1000)
     return "max_split_steps must be 1…1000, got " + std::to_string(limits.max_split_steps);

@@ -391,6 +391,28 @@ void HistoryWriter::save_snapshot(const ControllerSnapshot& s) {
   m.commit();
 }
 
+std::int64_t HistoryWriter::prune_samples(RunId run, std::int64_t before_index, double before_time_s) {
+  Impl& m = live();
+  m.counts(run);
+  m.commit();
+  std::int64_t deleted = 0;
+  m.db->exec("BEGIN IMMEDIATE");
+  try {
+    Statement samples(*m.db, "DELETE FROM input_samples WHERE run_id = ?1 AND sample_index < ?2 AND time_s < ?3");
+    samples.bind(1, run).bind(2, before_index).bind(3, before_time_s).run();
+    deleted += sqlite3_changes(m.db->handle());
+    Statement predictions(*m.db, "DELETE FROM predictions WHERE run_id = ?1 AND time_s < ?2");
+    predictions.bind(1, run).bind(2, before_time_s).run();
+    deleted += sqlite3_changes(m.db->handle());
+    m.db->exec("COMMIT");
+  } catch (...) {
+    sqlite3_exec(m.db->handle(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
+  ++m.commits;
+  return deleted;
+}
+
 void HistoryWriter::commit() { live().commit(); }
 
 ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {

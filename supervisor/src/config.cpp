@@ -229,11 +229,13 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
     if (i.rfind("E_", 0) == 0) s.fail("inputs", "'" + i + "' starts with E_, which names an error (an output)");
   if (auto v = s.number("stale_after_s", 0.0)) c.signals.stale_after_s = *v;
   if (auto v = s.number("probe_timeout_s", 0.0)) c.signals.probe_timeout_s = *v;
+  if (auto v = s.number("max_gap_s", 0.0)) c.signals.max_gap_s = *v;
   s.no_unknown_keys();
 
   Section h = top.sub("history");
   c.history.db = relative_to(file, h.required_text("db"));
   if (auto v = h.number("snapshot_every_h", 0.0)) c.history.snapshot_every_s = *v * 3600.0;
+  if (auto v = h.number("keep_days", 0.0)) c.history.keep_s = *v * 86400.0;
   if (auto v = h.text("durability")) {
     if (*v == "process") c.history.durability = storage::Durability::Process;
     else if (*v == "power") c.history.durability = storage::Durability::Power;

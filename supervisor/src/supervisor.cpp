@@ -19,6 +19,10 @@ using Json = nlohmann::json;
 
 namespace {
 
+// Samples held while a probe is outstanding, at most: probe_timeout_s bounds them in machine time, this
+// in memory (samples 1 ms apart would otherwise pile up for the whole timeout).
+constexpr std::size_t kMaxHeldSamples = 20000;
+
 std::shared_ptr<spdlog::logger> logger() { return log::get("supervisor"); }
 
 Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
@@ -80,7 +84,8 @@ class Supervisor::Tap : public runtime::Observer {
         j["to"] = std::string(to_string(e.to));
       }
       if (e.type == ControllerEvent::Type::ProbeIntervalChange) j["interval_s"] = number_or_null(e.interval_s);
-      if (e.type == ControllerEvent::Type::AclBreach || e.type == ControllerEvent::Type::Implausible) {
+      if (e.type == ControllerEvent::Type::AclBreach || e.type == ControllerEvent::Type::Implausible ||
+          e.type == ControllerEvent::Type::Guard) {
         j["output"] = e.output;
         j["value"] = e.value;
         j["limit"] = e.limit;
@@ -307,17 +312,33 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     const SampleMessage& m = std::get<SampleMessage>(parsed);
     if (m.time_s == last_received_s_)
       return reject(topic, "duplicate sample: time_s = " + std::to_string(m.time_s) + " s was accepted already");
+    // A jump ahead by more than max_gap_s counts once the next sample confirms it (journaled entries,
+    // seq >= 0, were accepted already). The sample after a jump that does not confirm it sets it aside.
+    const double gap = config_.signals.max_gap_s;
+    if (jump_) {
+      auto [held, held_payload] = std::move(*jump_);
+      jump_.reset();
+      if (m.time_s > held.time_s && m.time_s <= held.time_s + gap) {
+        accept_sample(held, held_payload, -1);
+      } else {
+        reject(topic, "time jumps ahead to time_s = " + std::to_string(held.time_s) + " s from " +
+                          std::to_string(last_received_s_) + " s and the next sample (time_s = " +
+                          std::to_string(m.time_s) + " s) does not confirm it: set aside");
+      }
+    }
     if (m.time_s < last_received_s_)
       return reject(topic, "time goes backwards: time_s = " + std::to_string(m.time_s) + " s after " +
                                std::to_string(last_received_s_) + " s");
-    const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
-    entry_seq_ = s;
-    last_received_s_ = m.time_s;
-    ++counts_.received;
-    held_.push_back(m);
-    drain();
-    if (idle()) next_seq_ = s + 1;
-    return;
+    if (seq < 0 && std::isfinite(last_received_s_) && m.time_s > last_received_s_ + gap) {
+      jump_.emplace(m, payload);
+      event({{"type", "TimeJump"},
+             {"time_s", m.time_s},
+             {"reason", "time jumps ahead by " + std::to_string(m.time_s - last_received_s_) +
+                            " s, more than signals.max_gap_s = " + std::to_string(gap) +
+                            " s: held until the next sample confirms it"}});
+      return;
+    }
+    return accept_sample(m, payload, seq);
   }
   if (topic == "probe/result") {
     auto parsed = parse_probe_result(payload, config_.signals.outputs);
@@ -331,6 +352,13 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     if (m.time_s < outstanding_->trigger_s)
       return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + std::to_string(m.time_s) +
                                " s is before its request at " + std::to_string(outstanding_->trigger_s) + " s");
+    // A result measured after the probe would have timed out is no answer to it (a time of 1e12 would
+    // hold every later sample for ever, waiting for the machine time to reach it).
+    if (m.time_s > outstanding_->asked_s + config_.signals.probe_timeout_s)
+      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + std::to_string(m.time_s) +
+                               " s is after its timeout at " +
+                               std::to_string(outstanding_->asked_s + config_.signals.probe_timeout_s) +
+                               " s (request + signals.probe_timeout_s)");
     const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
     entry_seq_ = s;
     result_ = m;
@@ -342,6 +370,16 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
   reject(topic, "not a topic the supervisor reads");
 }
 
+void Supervisor::accept_sample(const SampleMessage& m, const std::string& payload, std::int64_t seq) {
+  const std::int64_t s = seq >= 0 ? seq : inbox_->append("sample", payload);
+  entry_seq_ = s;
+  last_received_s_ = m.time_s;
+  ++counts_.received;
+  held_.push_back(m);
+  drain();
+  if (idle()) next_seq_ = s + 1;
+}
+
 void Supervisor::drain() {
   for (;;) {
     if (outstanding_) {
@@ -349,14 +387,18 @@ void Supervisor::drain() {
         apply_result();
         continue;
       }
-      if (!result_ && !held_.empty() && held_.back().time_s > outstanding_->trigger_s + config_.signals.probe_timeout_s) {
+      const bool late = !held_.empty() && held_.back().time_s > outstanding_->asked_s + config_.signals.probe_timeout_s;
+      const bool full = held_.size() >= kMaxHeldSamples;  // samples far denser than their clock says
+      if (!result_ && (late || full)) {
         ++counts_.timeouts;
         logger()->warn("probe {} timed out", outstanding_->id);
         event({{"type", "ProbeTimeout"},
                {"id", outstanding_->id},
                {"time_s", held_.back().time_s},
-               {"reason", "no result within probe_timeout_s = " + std::to_string(config_.signals.probe_timeout_s) +
-                              " s of machine time after the request"}});
+               {"reason", late ? "no result within probe_timeout_s = " +
+                                     std::to_string(config_.signals.probe_timeout_s) +
+                                     " s of machine time after the request"
+                               : "no result while " + std::to_string(held_.size()) + " samples were held"}});
         outstanding_.reset();
         continue;
       }
@@ -384,14 +426,34 @@ void Supervisor::feed(const SampleMessage& m) {
     next_seq_ = entry_seq_ + 1;
     const std::int64_t before = snapshots_;
     lifecycle_->on_sample_done(s, controller_, controller_.state().samples);
-    if (snapshots_ != before) inbox_->prune(next_seq_);
+    if (snapshots_ != before) {
+      inbox_->prune(next_seq_);
+      prune_history(m.time_s);
+    }
     nc_->forget_commands();
     nc_sent_ = 0;
   }
 }
 
+void Supervisor::prune_history(double now_s) {
+  if (!(config_.history.keep_s > 0.0)) return;
+  const ControllerState& c = controller_.state();
+  // Never a sample the controller's learning holds (a resume reads them back from the history).
+  double before_s = now_s - config_.history.keep_s;
+  if (!c.history.time_s.empty()) before_s = std::min(before_s, c.history.time_s.front());
+  if (before_s <= pruned_before_s_) return;
+  const std::int64_t deleted = writer_->prune_samples(lifecycle_->run(), c.history_first_index, before_s);
+  pruned_before_s_ = before_s;
+  if (deleted > 0)
+    logger()->info("history: {} input samples and predictions before t = {} s deleted (keep_days = {})", deleted,
+                   before_s, config_.history.keep_s / 86400.0);
+}
+
 void Supervisor::request_probe(double trigger_s) {
-  outstanding_ = Outstanding{next_id_++, controller_.state().next_probe_due_s, trigger_s, compensation_};
+  // Asked now, when the latest sample received is last_received_s_ (later than trigger_s while held
+  // samples are fed after a timeout): the timeout counts from then, not from a sample long past.
+  outstanding_ = Outstanding{next_id_++, controller_.state().next_probe_due_s, trigger_s,
+                             std::max(trigger_s, last_received_s_), compensation_};
   ++counts_.requests;
   publish_request();
 }

@@ -539,6 +539,9 @@ c_deg = 0.002
     return "no error";
   };
   CHECK(error("[limits.max_step]\nx_mm = -1") == "m.toml: key 'limits.max_step.x_mm': must be > 0: value '-1'");
+  // A step below one tick of the NC: every step would be refused, the axis stuck at zero. Refused at load.
+  CHECK_THAT(error("[limits.max_step]\nc_deg = 0.00005"),
+             StartsWith("m.toml: key 'limits.max_step'") && Contains("axis C must be at least the NC resolution 0.0001"));
   // A value as typed, not toml++'s 17 digits (-0.10000000000000001).
   CHECK(error("[limits.max_offset]\nx_mm = -0.1") == "m.toml: key 'limits.max_offset.x_mm': must be > 0: value '-0.1'");
   CHECK(error("[limits]\non_step_violation = \"clamp\"") ==

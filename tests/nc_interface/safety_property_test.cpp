@@ -120,12 +120,13 @@ TEST_CASE("safety property: 10^4 random streams never put an offset or a step be
     const Dialect dialect = dialects[rng() % 4];
     Control control;
     SafetyLimits& l = control.limits;
-    // Limits that are not multiples of the resolution (some below it).
+    // Limits that are not multiples of the resolution, from one tick up (below it validate() refuses
+    // them: checked after the loop).
     for (double* v : {&l.max_offset.x_mm, &l.max_offset.y_mm, &l.max_offset.z_mm})
-      *v = uniform(rng, 0.00005, 0.05);
-    for (double* v : {&l.max_offset.a_deg, &l.max_offset.b_deg, &l.max_offset.c_deg}) *v = uniform(rng, 0.00005, 0.01);
-    for (double* v : {&l.max_step.x_mm, &l.max_step.y_mm, &l.max_step.z_mm}) *v = uniform(rng, 0.00003, 0.01);
-    for (double* v : {&l.max_step.a_deg, &l.max_step.b_deg, &l.max_step.c_deg}) *v = uniform(rng, 0.00003, 0.002);
+      *v = uniform(rng, 0.0001, 0.05);
+    for (double* v : {&l.max_offset.a_deg, &l.max_offset.b_deg, &l.max_offset.c_deg}) *v = uniform(rng, 0.0001, 0.01);
+    for (double* v : {&l.max_step.x_mm, &l.max_step.y_mm, &l.max_step.z_mm}) *v = uniform(rng, 0.0001, 0.01);
+    for (double* v : {&l.max_step.a_deg, &l.max_step.b_deg, &l.max_step.c_deg}) *v = uniform(rng, 0.0001, 0.002);
     l.on_step_violation = rng() % 2 ? StepAction::Split : StepAction::Refuse;
     l.max_split_steps = 1 + static_cast<int>(rng() % 30);
     DialectOptions options;
@@ -183,4 +184,11 @@ TEST_CASE("safety property: 10^4 random streams never put an offset or a step be
   CHECK(split > 100);
   CHECK(refused > 1000);
   CHECK(activations >= accepted + split);
+  // A limit below one tick would refuse every step the NC can take: refused before any stream.
+  SafetyLimits below;
+  below.max_step.y_mm = 0.00005;
+  CHECK_THAT(validate(below), Catch::Contains("max_step of axis Y must be at least the NC resolution"));
+  below = SafetyLimits{};
+  below.max_offset.c_deg = 0.00003;
+  CHECK_THAT(validate(below), Catch::Contains("max_offset of axis C must be at least the NC resolution"));
 }

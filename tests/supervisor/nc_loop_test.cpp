@@ -341,21 +341,6 @@ std::string nc_error_of(const std::string& nc) {
   return "";
 }
 
-struct RecordingBus : supervisor::Bus {
-  std::vector<std::pair<std::string, std::string>> out;
-  void publish(const std::string& topic, const std::string& payload, bool) override { out.emplace_back(topic, payload); }
-  std::size_t count(const std::string& event_type) const {
-    std::size_t n = 0;
-    for (const auto& [t, p] : out) n += t == "event" && Json::parse(p).value("type", "") == event_type;
-    return n;
-  }
-  Json last(const std::string& topic) const {
-    for (auto it = out.rbegin(); it != out.rend(); ++it)
-      if (it->first == topic) return Json::parse(it->second);
-    return Json();
-  }
-};
-
 }  // namespace
 
 TEST_CASE("nc config: sinks, probe and linuxcncrsh keys are checked with the key and value named") {

@@ -92,6 +92,16 @@ TEST_CASE("config errors name the file and the key and the value") {
   CHECK(c.mqtt.prefix == "alc/dmu-1");
 }
 
+TEST_CASE("a log file that cannot be opened is a configuration error: exit 2 naming log.file, not restarted by its unit") {
+  const fs::path dir = temp_dir("log-file");
+  write(dir / "s.toml", config_text() + "[log]\nfile = \"" + (dir / "no_such_dir" / "alc.log").string() + "\"\n");
+  const pid_t pid = spawn({ALC_CLI_PATH, "supervise", "--config", (dir / "s.toml").string()}, dir / "out.log");
+  CHECK(wait_exit(pid) == 2);
+  std::ifstream in(dir / "out.log");
+  const std::string out((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CHECK_THAT(out, Catch::Contains("key 'log.file'") && Catch::Contains("no_such_dir"));
+}
+
 TEST_CASE("messages are refused with the reason named") {
   const std::vector<std::string> in = {"T_ENV", "T_WS"};
   auto reason = [&](const std::string& p) {
@@ -264,10 +274,12 @@ TEST_CASE("bad messages are rejected with the reason and stale sensors hold the 
   const storage::HistoryReader r(sup.dir / "h.sqlite");
   const auto run = r.runs().back();
   CHECK(run.status == storage::RunStatus::Stopped);
-  // t = 720 s timed probe 2 out: t = 120 s was processed and asked for probe 3; the others wait in the
-  // inbox (processed after a restart).
-  CHECK(c.state()["probe_timeouts"] == 2);
-  CHECK(r.input_samples(run.run_id).size() == 3);
+  // t = 720 s does not time probe 2 out: it was asked when t = 660 s had arrived, so its timeout counts
+  // from there (until t = 1260 s). Before, the held t = 60 s that asked started its clock, t = 720 s
+  // timed it out at once, and so on for every sample after one unanswered probe. The held samples
+  // wait in the inbox (processed after a restart).
+  CHECK(c.state()["probe_timeouts"] == 1);
+  CHECK(r.input_samples(run.run_id).size() == 2);
 }
 
 TEST_CASE("username and password file on a broker with an ACL and wrong credentials are a clear error") {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "scenarios/load_cases.hpp"
+#include "supervisor/supervisor.hpp"
 
 namespace alc::supervisor_test {
 
@@ -324,6 +325,28 @@ struct Gateway {
       if (next_row < s.samples() && next_row < done + window) c.publish("sample", sample_json(s, next_row++));
       return false;
     });
+  }
+};
+
+// A bus in the test's process: what an in-process Supervisor publishes, in order.
+struct RecordingBus : supervisor::Bus {
+  std::vector<std::pair<std::string, std::string>> out;
+  void publish(const std::string& topic, const std::string& payload, bool) override { out.emplace_back(topic, payload); }
+  std::size_t count(const std::string& event_type) const {
+    std::size_t n = 0;
+    for (const auto& [t, p] : out) n += t == "event" && Json::parse(p).value("type", "") == event_type;
+    return n;
+  }
+  Json last(const std::string& topic) const {
+    for (auto it = out.rbegin(); it != out.rend(); ++it)
+      if (it->first == topic) return Json::parse(it->second);
+    return Json();
+  }
+  // The latest event of `type` (null if none).
+  Json last_event(const std::string& type) const {
+    for (auto it = out.rbegin(); it != out.rend(); ++it)
+      if (it->first == "event" && Json::parse(it->second).value("type", "") == type) return Json::parse(it->second);
+    return Json();
   }
 };
 

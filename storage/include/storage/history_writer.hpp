@@ -99,6 +99,13 @@ class HistoryWriter {
   // Stores the snapshot and commits everything pending with it.
   void save_snapshot(const ControllerSnapshot& snapshot);
 
+  // Retention for a run that goes on for months: deletes the run's input samples with sample_index <
+  // before_index and time_s < before_time_s, and its predictions with time_s < before_time_s, then
+  // commits; probes, models, phase changes, NC commands and snapshots stay. The caller keeps what a
+  // resume reads (the samples from the latest snapshot's history_first_index on). SQLite reuses the
+  // freed pages, so the file stops growing. Returns the rows deleted.
+  std::int64_t prune_samples(RunId run, std::int64_t before_index, double before_time_s);
+
   // Commits the open transaction (no-op when nothing is pending).
   void commit();
 

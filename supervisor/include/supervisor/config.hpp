@@ -39,12 +39,20 @@ struct SignalsConfig {
   std::vector<std::string> outputs;
   double stale_after_s = 300.0;       // [s] wall clock without a sample: stale
   double probe_timeout_s = 1800.0;    // [s] machine time after the request: the probe is given up
+  // [s] machine time: a sample further ahead of the latest one is held until the next sample confirms
+  // the jump (a clock reset or a typo such as 1e15 would otherwise refuse every later sample as
+  // "time goes backwards"); an unconfirmed one is set aside.
+  double max_gap_s = 3600.0;
 };
 
 struct HistoryConfig {
   std::filesystem::path db;
   double snapshot_every_s = 3600.0;   // [s] machine time between controller snapshots
   storage::Durability durability = storage::Durability::Process;
+  // [s] machine time: input samples and predictions older than this are deleted at each snapshot
+  // (never those the controller's learning still holds); probes, models, phase changes and NC
+  // commands stay. 0: keep everything.
+  double keep_s = 90.0 * 86400.0;
 };
 
 // The probe cycle the supervisor runs itself on LinuxCNC ([nc] probe = "linuxcnc"): G38.2 along -Z

@@ -83,15 +83,19 @@ class Supervisor {
   struct Outstanding {
     std::int64_t id = 0;
     double due_s = 0.0;
-    double trigger_s = 0.0;   // time of the sample that reached the due time
+    double trigger_s = 0.0;   // time of the sample that reached the due time: a result is not before it
+    double asked_s = 0.0;     // the latest sample received when the request went out: the timeout counts from it
     Eigen::VectorXd compensation;  // in force when it was asked for: what the probe measures with
   };
   void process(const std::string& topic, const std::string& payload, std::int64_t seq_if_recovering);
+  void accept_sample(const SampleMessage& m, const std::string& payload, std::int64_t seq_if_recovering);
   void reject(const std::string& topic, const std::string& reason);
   void drain();
   void feed(const SampleMessage& m);
   void apply_result();
   void request_probe(double trigger_s);
+  // Retention at a snapshot: the history's input samples and predictions older than keep_days.
+  void prune_history(double now_s);
   void publish_request();
   void publish_offsets(double time_s);
   void event(nlohmann::json e);
@@ -131,10 +135,14 @@ class Supervisor {
   std::optional<ProbeResultMessage> result_;
   std::deque<SampleMessage> held_;
   double last_received_s_ = -kInf;         // [s] latest accepted sample (fed or held)
+  // A sample more than signals.max_gap_s ahead of the latest, with its payload: accepted when the next
+  // sample confirms the jump, set aside when it does not (not journaled until then).
+  std::optional<std::pair<SampleMessage, std::string>> jump_;
   std::int64_t next_id_ = 1;
   std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
   std::int64_t entry_seq_ = 0;             // inbox entry being processed
   std::int64_t snapshots_ = 0;             // snapshots saved by this process
+  double pruned_before_s_ = -kInf;         // [s] the history holds no sample before this (pruned)
   bool recovering_ = false;
   bool stale_ = false;
   double last_sample_wall_s_ = 0.0;

@@ -1,0 +1,193 @@
+// The supervisor in process (no broker) against messages whose time is wrong: a sample far ahead of
+// the others, a probe result long after its timeout, a probe that is never answered, samples far
+// denser than their clock says. None may stall the loop or refuse every later message. And the
+// history's retention, which keeps a run of months bounded on disk.
+#include <catch2/catch.hpp>
+
+#include <fstream>
+
+#include "storage/history_reader.hpp"
+#include "supervisor/config.hpp"
+#include "supervisor/supervisor.hpp"
+#include "supervisor_test_support.hpp"
+
+using namespace alc;
+using namespace alc::supervisor_test;
+
+namespace {
+
+// Case A's first hours with a short CP (probes every 15 min during it), an in-process supervisor.
+struct Rig {
+  scenarios::Scenario s;
+  fs::path dir;
+  supervisor::SupervisorConfig config;
+  RecordingBus bus;
+  Rig(const std::string& name, double hours, const std::string& history_extra = "", const std::string& controller_extra = "")
+      : s(case_a(hours)), dir(temp_dir(name)) {
+    std::string text = case_config(s, 1);
+    const std::string cp = "cp = 6.5\ninterval = 2\n";
+    text.replace(text.find(cp), cp.size(), "cp = 2\ncp-interval = 15\ninterval = 1\n" + controller_extra);
+    const std::string snapshots = "snapshot_every_h = 2\n";
+    text.replace(text.find(snapshots), snapshots.size(), snapshots + history_extra);
+    // probe_timeout_s of case_config is a day: 30 min here.
+    text.replace(text.find("probe_timeout_s = 86400"), 23, "probe_timeout_s = 1800");
+    write(dir / "s.toml", text);
+    config = supervisor::read_supervisor_config(dir / "s.toml");
+  }
+  std::string sample(std::size_t row, double shift_s = 0.0) const {
+    Json j = Json::parse(sample_json(s, row));
+    j["time_s"] = s.time_s[row] + shift_s;
+    return j.dump();
+  }
+  std::string result(std::int64_t id, double time_s) const {
+    return Json{{"id", id}, {"time_s", time_s}, {"errors", Json{{"E_X0C", 1.0}}}}.dump();
+  }
+};
+
+}  // namespace
+
+TEST_CASE("supervisor: a sample far ahead counts once the next confirms it, a typo like 1e15 is set aside") {
+  Rig rig("time-jump", 2.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  for (std::size_t row = 0; row < 40; ++row) sup.on_message("sample", rig.sample(row), 0.0);
+  const auto received = sup.counts().received;
+  REQUIRE(received == 40);
+  // A sample at 1e15 s: held, then the next real one does not confirm it. Before, every later sample
+  // was "time goes backwards" for ever.
+  Json typo = Json::parse(rig.sample(40));
+  typo["time_s"] = 1e15;
+  sup.on_message("sample", typo.dump(), 0.0);
+  CHECK(rig.bus.count("TimeJump") == 1);
+  CHECK(sup.counts().received == 40);
+  for (std::size_t row = 40; row < 60; ++row) sup.on_message("sample", rig.sample(row), 0.0);
+  CHECK(sup.counts().received == 60);
+  const Json rejected = rig.bus.last_event("MessageRejected");
+  CHECK_THAT(rejected.value("reason", ""), Catch::Contains("time jumps ahead to time_s = 1000000000000000") &&
+                                               Catch::Contains("does not confirm it: set aside"));
+  // A real gap (the machine off for a day): the sample after it confirms it, both count.
+  const double day = 86400.0;
+  for (std::size_t row = 60; row < 80; ++row) sup.on_message("sample", rig.sample(row, day), 0.0);
+  CHECK(rig.bus.count("TimeJump") == 2);
+  CHECK(sup.counts().received == 80);
+  CHECK(sup.counts().rejected == 1);  // the typo alone
+}
+
+TEST_CASE("supervisor: a probe never answered times out once, the next request is judged from when it is asked") {
+  Rig rig("probe-skip", 8.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  // The gateway answers each request two samples after it came, measured then, but never probe 3.
+  std::int64_t asked = 0;
+  std::size_t asked_row = 0;
+  std::int64_t learned = 0;
+  for (std::size_t row = 0; row < rig.s.samples(); ++row) {
+    sup.on_message("sample", rig.sample(row), 0.0);
+    const Json request = rig.bus.last("probe/request");
+    if (!request.is_null() && request["id"].get<std::int64_t>() > asked) {
+      asked = request["id"].get<std::int64_t>();
+      asked_row = row;
+    }
+    if (asked > learned && row == asked_row + 2) {
+      learned = asked;
+      if (asked != 3) sup.on_message("probe/result", rig.result(asked, rig.s.time_s[row]), 0.0);
+    }
+  }
+  INFO("requests " << sup.counts().requests << ", timeouts " << sup.counts().timeouts);
+  CHECK(sup.counts().timeouts == 1);  // before: one per sample after the first (357 of 360 requests)
+  CHECK(sup.counts().requests == asked);
+  CHECK(sup.held() <= 2);             // not 30 min behind
+  CHECK(static_cast<std::int64_t>(sup.controller().state().probes.size()) >= asked - 3);
+}
+
+TEST_CASE("supervisor: a result whose time is after its probe's timeout is refused, the right one is learned") {
+  Rig rig("probe-future", 1.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  std::size_t row = 0;
+  while (rig.bus.last("probe/request").is_null()) sup.on_message("sample", rig.sample(row++), 0.0);
+  const std::int64_t id = rig.bus.last("probe/request")["id"].get<std::int64_t>();
+  sup.on_message("probe/result", rig.result(id, 1e12), 0.0);
+  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::Contains("is after its timeout"));
+  // Before, it was taken: every later sample was held until the machine time reached 1e12 s.
+  for (int k = 0; k < 5; ++k) sup.on_message("sample", rig.sample(row++), 0.0);
+  sup.on_message("probe/result", rig.result(id, rig.s.time_s[row - 1]), 0.0);
+  sup.on_message("sample", rig.sample(row++), 0.0);
+  CHECK(sup.held() == 0);
+  CHECK(sup.controller().state().probes.size() == 1);
+}
+
+TEST_CASE("supervisor: samples far denser than their clock do not pile up without bound while a probe is out") {
+  Rig rig("probe-dense", 1.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  std::size_t row = 0;
+  while (rig.bus.last("probe/request").is_null()) sup.on_message("sample", rig.sample(row++), 0.0);
+  // 1 ms apart: 25,000 samples are 25 s of machine time, far within probe_timeout_s.
+  const double t0 = rig.s.time_s[row];
+  Json j = Json::parse(rig.sample(row));
+  std::size_t most = 0;
+  for (int k = 0; k < 25000; ++k) {
+    j["time_s"] = t0 + 0.001 * k;
+    sup.on_message("sample", j.dump(), 0.0);
+    most = std::max(most, sup.held());
+  }
+  CHECK(most <= 20000);
+  CHECK(sup.counts().timeouts >= 1);
+  CHECK_THAT(rig.bus.last_event("ProbeTimeout").value("reason", ""), Catch::Contains("samples were held"));
+}
+
+TEST_CASE("supervisor: keep_days deletes old input samples and predictions at snapshots, never what the learning holds") {
+  // A 2 h learning window: the controller holds 1.25 x 2 h + 100 h of warm-up samples at most; 3 h of
+  // history kept, snapshots every 0.5 h; the whole of case A (192 h, 11,521 samples).
+  Rig rig("retention", 200.0, "keep_days = 0.125\n", "window = 2\n");
+  fs::path db = rig.dir / "h.sqlite";
+  {
+    std::string text;
+    std::ifstream in(rig.dir / "s.toml");
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    text.replace(text.find("snapshot_every_h = 2"), 20, "snapshot_every_h = 0.5");
+    write(rig.dir / "s.toml", text);
+    rig.config = supervisor::read_supervisor_config(rig.dir / "s.toml");
+  }
+  const auto play = [&](supervisor::Supervisor& sup, std::size_t from, std::size_t to) {
+    std::int64_t asked = 0;
+    for (std::size_t row = from; row < to; ++row) {
+      sup.on_message("sample", rig.sample(row), 0.0);
+      const Json request = rig.bus.last("probe/request");
+      if (!request.is_null() && request["id"].get<std::int64_t>() > asked) {
+        asked = request["id"].get<std::int64_t>();
+        sup.on_message("probe/result", rig.result(asked, rig.s.time_s[row]), 0.0);
+      }
+    }
+  };
+  const std::size_t rows = rig.s.samples();
+  {
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");
+    play(sup, 0, rows / 2);
+    sup.stop();
+  }
+  std::int64_t first_kept = 0;
+  double held_from_s = 0.0;
+  {
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");  // resumes: reads the samples it holds back
+    play(sup, rows / 2, rows);
+    first_kept = sup.controller().state().history_first_index;
+    held_from_s = sup.controller().state().history.time_s.front();
+    sup.stop();
+  }
+  const storage::HistoryReader r(db);
+  const auto samples = r.input_samples(1);
+  REQUIRE_FALSE(samples.empty());
+  const double end_s = rig.s.time_s[rows - 1];
+  // Old ones are gone (the first day at least), the ones the controller holds stay (it holds more than
+  // the 3 h kept: its warm-up), up to the last.
+  INFO(samples.size() << " samples kept, from t = " << samples.front().time_s << " s; the controller holds from "
+                      << held_from_s << " s");
+  CHECK(samples.size() < rows * 7 / 10);
+  CHECK(samples.front().time_s > rig.s.time_s[0] + 86400.0);
+  CHECK(samples.front().time_s <= held_from_s);
+  CHECK(samples.front().sample_index <= first_kept);
+  CHECK(samples.back().time_s == end_s);
+  const auto predictions = r.predictions(1);
+  CHECK(predictions.size() < rows * 7 / 10);
+  CHECK(predictions.front().time_s <= held_from_s);
+  // What is not samples stays: every probe of the run.
+  CHECK(r.probe_measurements(1).size() >= 20);
+}
