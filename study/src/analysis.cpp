@@ -86,7 +86,8 @@ Analysis analyse(const StudyInfo& info, const std::vector<storage::StudyRowRecor
       sorted.resize(std::min(sorted.size(), kClosest));
       ca.closest = sorted;
     }
-    // Pareto front: by P99 ascending (Pd descending on ties), keep each point with a higher Pd than all before.
+    // Pareto front: by P99 ascending (Pd descending on ties), keep each point with a higher Pd than all
+    // before, and every set with the very same (P99, Pd) as the one kept last (none beats the other).
     std::sort(points.begin(), points.end(), [](const Point& x, const Point& y) {
       if (x.p99_linear != y.p99_linear) return x.p99_linear < y.p99_linear;
       if (x.pd != y.pd) return x.pd > y.pd;
@@ -94,15 +95,17 @@ Analysis analyse(const StudyInfo& info, const std::vector<storage::StudyRowRecor
     });
     double best_pd = -INFINITY;
     for (const Point& p : points)
-      if (p.pd > best_pd) {
+      if (p.pd > best_pd ||
+          (!ca.pareto.empty() && p.pd == ca.pareto.back().pd && p.p99_linear == ca.pareto.back().p99_linear)) {
         ca.pareto.push_back(p);
         best_pd = p.pd;
       }
   }
   // Tab. 3 analog: the set that meets the limit on every case with the highest mean Pd.
   std::vector<CommonChoice::Near> all;
+  double common_p99 = INFINITY;  // the mean P99 over the cases of a.common.set (ties of mean Pd: the lower)
   for (const ParameterSet& s : info.sets) {
-    double worst = -INFINITY, pd_sum = 0.0;
+    double worst = -INFINITY, pd_sum = 0.0, p99_sum = 0.0;
     bool complete = !info.cases.empty();
     for (std::size_t c = 0; c < info.cases.size() && complete; ++c) {
       const auto it = by_case[c].find(s.index);
@@ -112,14 +115,19 @@ Analysis analyse(const StudyInfo& info, const std::vector<storage::StudyRowRecor
       }
       worst = std::max(worst, it->second.p99_linear);
       pd_sum += it->second.pd;
+      p99_sum += it->second.p99_linear;
     }
     if (!complete) continue;
     const double mean_pd = pd_sum / static_cast<double>(info.cases.size());
+    const double mean_p99 = p99_sum / static_cast<double>(info.cases.size());
     all.push_back({s.index, worst, mean_pd});
+    // Eq. 8's order over the cases: the higher mean Pd, then the lower mean P99, then the first set (with
+    // one case the same set as that case's optimum).
     if (worst < limit_um &&
-        (!a.common.set || mean_pd > a.common.mean_pd)) {
+        (!a.common.set || mean_pd > a.common.mean_pd || (mean_pd == a.common.mean_pd && mean_p99 < common_p99))) {
       a.common.set = s.index;
       a.common.mean_pd = mean_pd;
+      common_p99 = mean_p99;
     }
   }
   if (a.common.set) {
@@ -172,6 +180,7 @@ nlohmann::json analysis_json(const Analysis& a, const StudyInfo& info) {
   return {{"limit_um", a.limit_um},
           {"rows", a.rows},
           {"expected_rows", a.expected},
+          {"partial", a.rows < a.expected},
           {"paper_set", a.paper_set ? nlohmann::json(*a.paper_set) : nlohmann::json(nullptr)},
           {"per_case", cases},
           {"all_cases", common}};
@@ -181,6 +190,10 @@ void print_analysis(std::ostream& os, const Analysis& a, const StudyInfo& info) 
   const auto params = [&](std::size_t set) { return info.sets[set].key; };
   os << "Study: " << a.rows << " of " << a.expected << " rows (" << info.sets.size() << " sets x " << info.cases.size()
      << " cases)\n";
+  if (a.rows < a.expected)
+    os << "PARTIAL: " << a.expected - a.rows << " rows are missing (a shard, or a run not finished: --resume it, or "
+       << "merge the shards); what follows covers only the rows present, and \"on every case\" only the sets "
+          "that have a row on every case\n";
   os << "Eq. 8 optimum per case (highest Pd with mean linear P99 < " << fmt(a.limit_um, 1) << " µm; Tab. 2 analog):\n";
   for (const CaseAnalysis& c : a.cases) {
     if (c.optimum) {

@@ -1,4 +1,5 @@
 #include <catch2/catch.hpp>
+#include <sstream>
 
 #include "study/analysis.hpp"
 
@@ -89,4 +90,37 @@ TEST_CASE("failed rows count but never win") {
   CHECK(a.cases[0].optimum->set == 1);
   REQUIRE(a.common.set);  // set 0 has no usable row on A; set 1 meets the limit
   CHECK(*a.common.set == 1);
+}
+
+TEST_CASE("ties: the best set on one case is its Eq. 8 optimum, and sets at the very same point are all on the front") {
+  const StudyInfo info = info_with(4, 1);
+  // Sets 0 and 1 tie on Pd (97); set 1 has the lower P99, so Eq. 8 takes it, and so must "every case".
+  // Sets 2 and 3 sit at the very same (P99, Pd): neither beats the other.
+  const Analysis a = analyse(info, {row(0, 0, 4.0, 97.0), row(1, 0, 3.0, 97.0), row(2, 0, 2.0, 96.0),
+                                    row(3, 0, 2.0, 96.0)},
+                             5.0);
+  REQUIRE(a.cases[0].optimum);
+  CHECK(a.cases[0].optimum->set == 1);
+  REQUIRE(a.common.set);
+  CHECK(*a.common.set == 1);  // before: set 0, the first of the tied mean Pd
+  REQUIRE(a.cases[0].pareto.size() == 3);  // before: 2 (set 3 dropped as a duplicate of set 2)
+  CHECK(a.cases[0].pareto[0].set == 2);
+  CHECK(a.cases[0].pareto[1].set == 3);
+  CHECK(a.cases[0].pareto[2].set == 1);
+}
+
+TEST_CASE("a study with rows missing is said to be partial before its analysis") {
+  const StudyInfo info = info_with(2, 2);
+  const Analysis a = analyse(info, {row(0, 0, 4.0, 97.0), row(1, 0, 3.0, 96.0)}, 5.0);
+  std::ostringstream text;
+  print_analysis(text, a, info);
+  CHECK_THAT(text.str(), Catch::Contains("PARTIAL: 2 rows are missing"));
+  CHECK(analysis_json(a, info)["partial"] == true);
+  const Analysis whole = analyse(info, {row(0, 0, 4.0, 97.0), row(1, 0, 3.0, 96.0), row(0, 1, 4.0, 97.0),
+                                        row(1, 1, 3.0, 96.0)},
+                                 5.0);
+  std::ostringstream whole_text;
+  print_analysis(whole_text, whole, info);
+  CHECK(whole_text.str().find("PARTIAL") == std::string::npos);
+  CHECK(analysis_json(whole, info)["partial"] == false);
 }
