@@ -57,6 +57,11 @@ if [ "$grid" != paper ]; then
   study_args=(--grid "$(abs "$grid")")
 fi
 [ ${#cases[@]} -gt 0 ] || cases=(all)
+# alc study takes one --case, or scenario files: refused here, not in every task of the array.
+names=0 files=0
+for c in "${cases[@]}"; do case "$c" in *.csv) files=$((files + 1)) ;; *) names=$((names + 1)) ;; esac; done
+[ "$names" -le 1 ] || die "give one --case A|B|C|D|all (or several scenario CSV files), not $names"
+[ "$names" -eq 0 ] || [ "$files" -eq 0 ] || die "give --case ${cases[0]} or scenario CSV files, not both"
 for c in "${cases[@]}"; do
   case "$c" in
     *.csv) [ -f "$c" ] || die "scenario file $c not found"; study_args+=("$(abs "$c")") ;;
@@ -75,10 +80,13 @@ array_job="${array_job%%;*}"  # --parsable prints JOBID or JOBID;CLUSTER
 merge_args=(--parsable --dependency="afterok:$array_job" --kill-on-invalid-dep=yes
             --output="$out/logs/merge-job%j.out" ${sbatch_opts[@]+"${sbatch_opts[@]}"})
 [ "$wait" = 1 ] && merge_args+=(--wait)
-# With --wait, sbatch prints the ID at submission and returns when the job has ended; its exit status
-# is 0 also when the job was cancelled because a shard failed, so the job's state is checked below.
-merge_job="$(sbatch "${merge_args[@]}" "$here/merge.sbatch" "$alc" "$out" "$shards")" ||
-  die "sbatch of the merge job failed (shard array job $array_job stays queued: scancel $array_job)"
+# With --wait, sbatch prints the ID at submission and returns when the job has ended, with the job's
+# exit status (0 also when the job was cancelled because a shard failed): the job's state is checked
+# below. Only when it printed no ID did the submission itself fail.
+merge_rc=0
+merge_job="$(sbatch "${merge_args[@]}" "$here/merge.sbatch" "$alc" "$out" "$shards")" || merge_rc=$?
+[ -n "$merge_job" ] ||
+  die "sbatch of the merge job failed (exit $merge_rc; shard array job $array_job stays queued: scancel $array_job)"
 merge_job="${merge_job%%;*}"
 echo "shards: job $array_job (array 1-$shards), merge: job $merge_job -> $out/merged.sqlite"
 

@@ -16,6 +16,16 @@ help="$("$alc" study --help 2>&1)" || true
 [[ "$help" == *--shard* ]] || { echo "slurm_study_test: $alc has no 'study' command with --shard" >&2; exit 1; }
 grid="$here/slurm_grid.toml"
 
+# Cases alc study cannot take together are refused at submission, not in every task of the array.
+submit="$here/../../scripts/slurm/submit-study.sh"
+for bad in "--case A --case B" "--case A --case $grid.csv"; do
+  # shellcheck disable=SC2086
+  if out="$("$submit" --alc "$alc" --out /nonexistent/never $bad 2>&1)"; then
+    echo "slurm_study_test: submit-study.sh $bad was accepted" >&2; exit 1
+  fi
+  [[ "$out" == *"give"* ]] || { echo "slurm_study_test: submit-study.sh $bad: unexpected message: $out" >&2; exit 1; }
+done
+
 tmp="$(mktemp -d)"
 chmod 755 "$tmp"  # munged wants every directory above its socket searchable by all
 trap 'slurm_cluster_stop "$tmp/cluster"; rm -rf "$tmp"' EXIT
