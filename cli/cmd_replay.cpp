@@ -14,6 +14,7 @@
 #include <sstream>
 #include <vector>
 
+#include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/number_text.hpp"
 #include "nc_interface/dialects.hpp"

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
 #include "report/html_report.hpp"

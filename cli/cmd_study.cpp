@@ -13,6 +13,7 @@
 #include <random>
 #include <thread>
 
+#include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
 #include "common/number_text.hpp"

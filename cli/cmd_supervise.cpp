@@ -2,6 +2,7 @@
 #include <atomic>
 #include <csignal>
 
+#include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/log.hpp"
 #include "runtime/run.hpp"

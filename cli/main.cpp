@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/log.hpp"
 
