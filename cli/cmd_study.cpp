@@ -118,6 +118,10 @@ std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
     for (const std::string& f : a.files) {
       std::error_code ec;
       if (fs::is_directory(f, ec)) throw UsageError(f + ": is a directory, not a scenario CSV");
+      // A case is named by its file: the same file twice would be two cases of one name (and one row
+      // of each set counted twice in every mean).
+      for (const auto& c : cases)
+        if (c.name == f) throw UsageError(f + ": given twice (a case is named by its file)");
       cases.push_back({f, "file " + f, scenarios::read_scenario_csv(f), {}});
     }
   }
@@ -359,6 +363,11 @@ void run_merge(const MergeArgs& a) {
       throw UsageError(f + " is not a shard of the study in " + a.shards.front() + ": " + d);
     }
     if (!shard_names.insert(h->shard).second) throw UsageError(f + ": shard " + h->shard + " is given twice");
+    // Shards of one split only: 1/3 with 2/2 overlap or leave gaps by construction.
+    const auto split_of = [](const std::string& shard) { return shard.substr(shard.find('/') + 1); };
+    if (split_of(h->shard) != split_of(*shard_names.begin()))
+      throw UsageError(f + ": shard " + h->shard + " is of another split than shard " + *shard_names.begin() +
+                       " (every shard of a merge must be I/N with the same N)");
     for (auto& r : storage::StudyStore::rows_of(f)) {
       const auto [it, added] = owner.emplace(std::make_pair(r.set_index, r.case_index), f);
       if (!added)
@@ -430,13 +439,15 @@ void add_study_command(CLI::App& app) {
   cmd->add_flag("--json", args->json, "Print the analysis as JSON");
   cmd->add_option("--shard", args->shard, "Run the I-th of N deterministic slices (1 <= I <= N), e.g. 2/8");
   cmd->add_flag("--resume", args->resume, "Continue the study in --db: reuse its rows, compute the rest");
-  cmd->add_flag("--bench", args->bench,
+  CLI::Option* bench = cmd->add_flag("--bench", args->bench,
                 "Benchmark: the grid with shared work, then a random sample as independent replays; prints runs/s, "
                 "work saved, peak RSS and the ratio");
   add_whole_option(cmd, "--bench-sample", args->bench_sample, "Independent replays of the benchmark's baseline", 1,
-                   100000000);
+                   100000000)
+      ->needs(bench);
   cmd->add_option_function<std::string>("--bench-seed", [args](const std::string& s) { args->bench_seed = parse_seed(s, "--bench-seed"); },
-                                        "Seed of the benchmark's sample (default 1)");
+                                        "Seed of the benchmark's sample (default 1)")
+      ->needs(bench);
   cmd->add_flag("--quiet", args->quiet, "No progress on stderr");
 
   auto merge = std::make_shared<MergeArgs>();

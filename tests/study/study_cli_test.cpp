@@ -170,7 +170,17 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK_THAT(m.err, Catch::Contains("gap: no shard holds the row"));
     m = run_alc("study merge --out " + bad.string() + shard_files + " " + db.string(), "study_cli");
     CHECK(m.exit_code == 2);
-    CHECK_THAT(m.err, Catch::Contains("overlap: the row of set"));
+    CHECK_THAT(m.err, Catch::Contains("shard all is of another split than shard 1/3"));
+    // Shards of two splits (1/2 with 2/3): said so, not found as an overlap.
+    const fs::path half = dir() / "half.sqlite";
+    fs::remove(half);
+    REQUIRE(run_alc("study --grid " + grid.string() + " " + files() + " --shard 1/2 --quiet --db " + half.string(),
+                    "study_cli")
+                .exit_code == 0);
+    m = run_alc("study merge --out " + bad.string() + " " + half.string() + " " + (dir() / "shard2.sqlite").string(),
+                "study_cli");
+    CHECK(m.exit_code == 2);
+    CHECK_THAT(m.err, Catch::Contains("is of another split") && Catch::Contains("the same N"));
     const fs::path other = write("other.toml", "cp = [6.5]\ninterval = [2, 6]\n");
     const fs::path foreign = dir() / "foreign.sqlite";
     fs::remove(foreign);
@@ -204,6 +214,15 @@ TEST_CASE("bad study arguments are usage errors naming the value") {
   r = run_alc("study --grid paper " + dir().string(), "study_cli");
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Contains("is a directory"));
+  // The same file twice would be two cases of one name.
+  const fs::path a = short_case('A');
+  r = run_alc("study --grid paper " + a.string() + " " + a.string(), "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains(a.string() + ": given twice"));
+  // The benchmark's options without --bench were ignored without a word.
+  r = run_alc("study --grid paper --case A --bench-seed 3", "study_cli");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--bench-seed requires --bench"));
 }
 
 TEST_CASE("SIGINT stops a study cleanly: finished rows stay, --resume completes it") {
