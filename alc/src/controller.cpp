@@ -680,25 +680,30 @@ void Controller::advance(double time_s, ControllerOutput& out) {
   }
 }
 
-ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inputs) {
-  auto& h = state_.history;
+std::string Controller::sample_problem(double time_s, const Eigen::VectorXd& inputs) const {
+  const auto& h = state_.history;
   if (inputs.size() != static_cast<Eigen::Index>(h.input_names.size()))
-    return rejected("sample has " + std::to_string(inputs.size()) + " inputs, expected " +
-                    std::to_string(h.input_names.size()));
-  if (!std::isfinite(time_s)) return rejected("sample time " + std::to_string(time_s) + " is not finite");
+    return "sample has " + std::to_string(inputs.size()) + " inputs, expected " + std::to_string(h.input_names.size());
+  if (!std::isfinite(time_s)) return "sample time " + std::to_string(time_s) + " is not finite";
   for (Eigen::Index i = 0; i < inputs.size(); ++i)
     if (!std::isfinite(inputs[i]))
-      return rejected("sample at t = " + std::to_string(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
-                      "' is " + std::to_string(inputs[i]));
+      return "sample at t = " + std::to_string(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
+             "' is " + std::to_string(inputs[i]);
   for (Eigen::Index i = 0; i < inputs.size(); ++i) {
     const InputKind kind = input_kinds_[static_cast<std::size_t>(i)];
     const double limit = params_.plausible_limit(kind);
     if (std::abs(inputs[i]) <= limit) continue;
     const std::string unit = kind == InputKind::Other ? "" : " " + std::string(unit_of(kind));
-    return rejected("sample at t = " + reading(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
-                    "' = " + reading(inputs[i]) + unit + " is beyond the plausible ±" + reading(limit) + unit +
-                    " (a sensor fault?): sample set aside");
+    return "sample at t = " + reading(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] + "' = " +
+           reading(inputs[i]) + unit + " is beyond the plausible ±" + reading(limit) + unit +
+           " (a sensor fault?): sample set aside";
   }
+  return {};
+}
+
+ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inputs) {
+  if (std::string why = sample_problem(time_s, inputs); !why.empty()) return rejected(std::move(why));
+  auto& h = state_.history;
   if (state_.started && !(time_s > state_.now_s))
     return rejected("sample time " + std::to_string(time_s) + " s is not after the previous one (" +
                     std::to_string(state_.now_s) + " s)");

@@ -310,6 +310,9 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     auto parsed = parse_sample(payload, config_.signals.inputs);
     if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
     const SampleMessage& m = std::get<SampleMessage>(parsed);
+    // What the controller would refuse in the sample itself (an input beyond its plausible limit) is
+    // refused here, before the journal: a rejected sample changes nothing, not even the latest time.
+    if (const std::string why = controller_.sample_problem(m.time_s, m.inputs); !why.empty()) return reject(topic, why);
     if (m.time_s == last_received_s_)
       return reject(topic, "duplicate sample: time_s = " + std::to_string(m.time_s) + " s was accepted already");
     // A jump ahead by more than max_gap_s counts once the next sample confirms it (journaled entries,

@@ -191,3 +191,20 @@ TEST_CASE("supervisor: keep_days deletes old input samples and predictions at sn
   // What is not samples stays: every probe of the run.
   CHECK(r.probe_measurements(1).size() >= 20);
 }
+
+TEST_CASE("supervisor: a sample the controller would refuse (an input beyond its plausible limit) changes nothing") {
+  Rig rig("implausible", 1.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  for (std::size_t row = 0; row < 5; ++row) sup.on_message("sample", rig.sample(row), 0.0);
+  REQUIRE(sup.counts().received == 5);
+  Json hot = Json::parse(rig.sample(5));
+  hot["inputs"][rig.s.input_names[0]] = 500.0;  // 500 °C: beyond the plausible ±200 °C of a T_ input
+  sup.on_message("sample", hot.dump(), 0.0);
+  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::Contains("beyond the plausible"));
+  CHECK(sup.counts().received == 5);  // before: counted as received and as rejected
+  CHECK(sup.counts().rejected == 1);
+  // The genuine sample of that time is not a "duplicate" (before, the refused one had taken its time).
+  sup.on_message("sample", rig.sample(5), 0.0);
+  CHECK(sup.counts().received == 6);
+  CHECK(sup.counts().rejected == 1);
+}

@@ -195,6 +195,11 @@ class Controller {
   // A new input sample (time strictly increasing, every input finite). Returns the prediction after
   // it; a sample that breaks this is rejected (accepted = false, reason) and changes nothing.
   ControllerOutput on_sample(double time_s, const Eigen::VectorXd& inputs);
+  // Why on_sample would reject a sample for what it holds (the number of inputs, a time or an input
+  // that is not finite, an input beyond its plausible limit), empty if nothing; the order of the times
+  // is the caller's to judge. A caller that journals samples before they reach the controller (the
+  // supervisor) asks this first, so that a sample refused here changes nothing there either.
+  std::string sample_problem(double time_s, const Eigen::VectorXd& inputs) const;
   // A probe cycle finished at `probe.time_s` (not before the latest sample; NaN = not measured).
   // A probe that cannot be used is rejected (accepted = false, reason) and changes nothing; an error
   // beyond its plausibility limit is treated as not measured (an Implausible event names it).
