@@ -12,8 +12,14 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// An event told at info level, of a sample or a probe: phase changes (with the phases), rejected
-// models, the guard's decisions (with the output).
+// The events told at info level, of a sample or a probe alike: phase changes, rejected models, the
+// guard's decisions.
+bool told_at_info(const ControllerEvent& e) {
+  return e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
+         e.type == ControllerEvent::Type::Guard;
+}
+
+// One of them, the phase change with its phases, the guard's decision with its output.
 void log_event(const ControllerEvent& e) {
   std::string what = e.output.empty() ? "" : e.output + ": ";
   if (e.type == ControllerEvent::Type::PhaseChange)
@@ -63,9 +69,7 @@ ControllerOutput Driver::sample(const Sample& sample) {
   }
   last_ = sample;
   for (const ControllerEvent& e : out.events)
-    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
-        e.type == ControllerEvent::Type::Guard)
-      log_event(e);
+    if (told_at_info(e)) log_event(e);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -87,8 +91,7 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
                              std::find(implausible_logged_.begin(), implausible_logged_.end(), e.output) ==
                                  implausible_logged_.end();
     if (first_fault) implausible_logged_.push_back(e.output);
-    if (e.type == ControllerEvent::Type::PhaseChange || e.type == ControllerEvent::Type::ModelRejected ||
-        e.type == ControllerEvent::Type::Guard) {
+    if (told_at_info(e)) {
       log_event(e);
       continue;
     }
