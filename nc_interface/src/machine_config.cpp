@@ -164,6 +164,8 @@ void read_limits(Table t, SafetyLimits& l) {
     else t.fail("on_step_violation", "must be \"refuse\" or \"split\"");
   }
   t.integer("max_split_steps", l.max_split_steps);
+  t.number("step_period_s", l.step_period_s);
+  if (!(l.step_period_s > 0.0)) t.fail("step_period_s", "must be > 0 (seconds of machine time per max_step)");
   t.no_unknown_keys();
   if (const std::string e = validate(l); !e.empty()) {
     // "max_offset of axis X …" -> key max_offset.x_…; name the table and let the message say the axis.

@@ -58,6 +58,8 @@ std::string validate(const SafetyLimits& limits) {
       return std::string("max_offset of axis ") + a.axis + " must be at least the NC resolution 0.0001, got " +
              common::shortest_text(a.max_offset);
   }
+  if (!(limits.step_period_s > 0.0) || !std::isfinite(limits.step_period_s))
+    return "step_period_s must be > 0 and finite, got " + common::shortest_text(limits.step_period_s);
   if (limits.max_split_steps < 1 || limits.max_split_steps > 1000)
     return "max_split_steps must be 1…1000, got " + std::to_string(limits.max_split_steps);
   return {};

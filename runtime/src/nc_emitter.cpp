@@ -20,22 +20,35 @@ bool differs(const nc::AxisOffsets& a, const nc::AxisOffsets& b, double resoluti
          opt(a.b_deg, b.b_deg) || d(a.c_deg, b.c_deg);
 }
 
-// One step from `from` toward `to`: each axis moves by at most its max_step (a little less, so the
-// gate's comparison never sees a step above the limit through rounding).
-nc::AxisOffsets step_toward(const nc::AxisOffsets& from, const nc::AxisOffsets& to, const nc::AxisLimits& max_step) {
+// One step from `from` toward `to`: each axis moves by at most its budget (a little less, so the
+// gate's comparison never sees a step above max_step through rounding).
+nc::AxisOffsets step_toward(const nc::AxisOffsets& from, const nc::AxisOffsets& to, const nc::AxisLimits& budget) {
   auto move = [](double x, double y, double limit) {
     const double l = limit * (1.0 - 1e-9);
     const double d = y - x;
     return std::abs(d) <= l ? y : x + (d > 0 ? l : -l);
   };
   nc::AxisOffsets s = to;
-  s.x_mm = move(from.x_mm, to.x_mm, max_step.x_mm);
-  s.y_mm = move(from.y_mm, to.y_mm, max_step.y_mm);
-  s.z_mm = move(from.z_mm, to.z_mm, max_step.z_mm);
-  if (to.a_deg) s.a_deg = move(from.a_deg.value_or(0.0), *to.a_deg, max_step.a_deg);
-  if (to.b_deg) s.b_deg = move(from.b_deg.value_or(0.0), *to.b_deg, max_step.b_deg);
-  s.c_deg = move(from.c_deg, to.c_deg, max_step.c_deg);
+  s.x_mm = move(from.x_mm, to.x_mm, budget.x_mm);
+  s.y_mm = move(from.y_mm, to.y_mm, budget.y_mm);
+  s.z_mm = move(from.z_mm, to.z_mm, budget.z_mm);
+  if (to.a_deg) s.a_deg = move(from.a_deg.value_or(0.0), *to.a_deg, budget.a_deg);
+  if (to.b_deg) s.b_deg = move(from.b_deg.value_or(0.0), *to.b_deg, budget.b_deg);
+  s.c_deg = move(from.c_deg, to.c_deg, budget.c_deg);
   return s;
+}
+
+// The members of nc::AxisLimits, for the budget's per-axis arithmetic.
+constexpr double nc::AxisLimits::* kAxes[] = {&nc::AxisLimits::x_mm,  &nc::AxisLimits::y_mm,  &nc::AxisLimits::z_mm,
+                                             &nc::AxisLimits::a_deg, &nc::AxisLimits::b_deg, &nc::AxisLimits::c_deg};
+
+// |to - from| per axis (an axis either leaves out counts as not moving).
+nc::AxisLimits moved(const nc::AxisOffsets& from, const nc::AxisOffsets& to) {
+  auto opt = [](const std::optional<double>& a, const std::optional<double>& b) {
+    return a && b ? std::abs(*b - *a) : 0.0;
+  };
+  return {std::abs(to.x_mm - from.x_mm), std::abs(to.y_mm - from.y_mm), std::abs(to.z_mm - from.z_mm),
+          opt(from.a_deg, to.a_deg),      opt(from.b_deg, to.b_deg),      std::abs(to.c_deg - from.c_deg)};
 }
 
 }  // namespace
@@ -58,6 +71,7 @@ NcCommandObserver::NcCommandObserver(const std::vector<std::string>& output_name
   // The starting point of the comparison: zero offsets on the axes of this chain.
   last_ = nc::to_axis_offsets(kinematics::Compensation{}, options_.chain, options_.work_offset);
   in_force_ = last_;
+  budget_ = options_.limits.max_step;
   maps_any_ = kinematics::maps_any_location_error(output_names);
 }
 
@@ -69,6 +83,8 @@ void NcCommandObserver::restore(const State& state) {
   in_force_ = state.in_force;
   behind_ = state.behind;
   next_periodic_s_ = state.next_periodic_s;
+  budget_ = state.budget;
+  budget_s_ = state.budget_s;
 }
 
 void NcCommandObserver::forget_commands() {
@@ -104,8 +120,11 @@ void NcCommandObserver::handle(const Cycle& cycle) {
   max_non_compensable_um_per_m_ = std::max(max_non_compensable_um_per_m_, c.non_compensable_um_per_m);
   // The target carries c.non_compensable_um_per_m, and so does every step toward it.
   const nc::AxisOffsets target = nc::to_axis_offsets(c, options_.chain, options_.work_offset);
-  // Approach the target in steps within max_step, one per controller cycle while behind.
-  nc::AxisOffsets request = step_toward(in_force_, target, options_.limits.max_step);
+  // Approach the target in steps drawn from the budget, one per controller cycle while behind: the
+  // budget refills at max_step per step_period_s of scenario time, up to max_step, so samples 1 ms
+  // apart move the offsets no faster than samples a minute apart. A step too small for the NC waits.
+  refill(time_s);
+  nc::AxisOffsets request = step_toward(in_force_, target, budget_);
   behind_ = differs(request, target, options_.resolution);
   if (!differs(request, last_, options_.resolution)) return;
   request.time_s = time_s;
@@ -114,8 +133,19 @@ void NcCommandObserver::handle(const Cycle& cycle) {
   if (d.verdict == nc::SafetyVerdict::Refused) {
     behind_ = false;  // wait for the next regular moment instead of repeating a refusal each cycle
   } else {
+    const nc::AxisLimits used = moved(in_force_, d.to_send.back());
+    for (const auto axis : kAxes) budget_.*axis = std::max(0.0, budget_.*axis - used.*axis);
     in_force_ = d.to_send.back();
   }
+}
+
+void NcCommandObserver::refill(double time_s) {
+  const double since_s = time_s - budget_s_;
+  budget_s_ = std::max(budget_s_, time_s);
+  if (!(since_s > 0.0)) return;
+  const double share = since_s / options_.limits.step_period_s;  // +inf before the first refill
+  for (const auto axis : kAxes)
+    budget_.*axis = std::min(options_.limits.max_step.*axis, budget_.*axis + share * options_.limits.max_step.*axis);
 }
 
 nc::SafetyDecision NcCommandObserver::emit(const nc::NcCommand& command, double time_s) {

@@ -207,7 +207,7 @@ void Supervisor::begin_or_resume() {
   if (!extras)
     throw std::runtime_error(inbox_->path().string() + ": no supervisor state for the snapshot of run " +
                              std::to_string(run) + " (inbox entry " + std::to_string(next_seq_) + ")");
-  restore_extras(*extras);
+  restore_extras(*extras, snap.time_s);
   // Everything accepted after the snapshot, again, in the order it was accepted.
   recovering_ = true;
   const auto entries = inbox_->from(next_seq_);
@@ -227,6 +227,9 @@ std::string Supervisor::extras_json() const {
               {"nc_in_force", offsets_json(st.in_force)},
               {"nc_behind", st.behind},
               {"nc_next_periodic_s", time_json(st.next_periodic_s)},
+              {"nc_budget", {st.budget.x_mm, st.budget.y_mm, st.budget.z_mm, st.budget.a_deg, st.budget.b_deg,
+                             st.budget.c_deg}},
+              {"nc_budget_s", time_json(st.budget_s)},
               {"received", counts_.received},
               {"rejected", counts_.rejected},
               {"requests", counts_.requests},
@@ -234,7 +237,7 @@ std::string Supervisor::extras_json() const {
       .dump();
 }
 
-void Supervisor::restore_extras(const std::string& text) {
+void Supervisor::restore_extras(const std::string& text, double snapshot_s) {
   const Json j = Json::parse(text);
   next_id_ = j.at("next_id").get<std::int64_t>();
   const auto comp = j.at("compensation").get<std::vector<double>>();
@@ -248,6 +251,16 @@ void Supervisor::restore_extras(const std::string& text) {
   st.in_force = offsets_of(j.at("nc_in_force"), wo);
   st.behind = j.at("nc_behind").get<bool>();
   st.next_periodic_s = time_of(j.at("nc_next_periodic_s"));
+  // The rate limit's budget; a snapshot of a build before it has none: the budget starts empty at
+  // the snapshot's time then (refilled from there, never a whole step at once after a restart).
+  st.budget = {0, 0, 0, 0, 0, 0};
+  st.budget_s = snapshot_s;
+  if (j.contains("nc_budget")) {
+    const auto b = j.at("nc_budget").get<std::vector<double>>();
+    if (b.size() != 6) throw std::runtime_error("supervisor snapshot: nc_budget must have 6 values");
+    st.budget = {b[0], b[1], b[2], b[3], b[4], b[5]};
+    st.budget_s = time_of(j.at("nc_budget_s"));
+  }
   nc_->restore(st);
   tap_->last_in_force_ = st.in_force;
   counts_.received = j.at("received").get<std::int64_t>();

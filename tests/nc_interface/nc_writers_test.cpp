@@ -544,6 +544,12 @@ c_deg = 0.002
              StartsWith("m.toml: key 'limits.max_step'") && Contains("axis C must be at least the NC resolution 0.0001"));
   // A value as typed, not toml++'s 17 digits (-0.10000000000000001).
   CHECK(error("[limits.max_offset]\nx_mm = -0.1") == "m.toml: key 'limits.max_offset.x_mm': must be > 0: value '-0.1'");
+  // The rate limit's period: seconds of machine time per max_step.
+  CHECK(parse_machine_config("[limits]\nstep_period_s = 600", "m.toml").limits.step_period_s == 600.0);
+  CHECK(parse_machine_config("", "m.toml").limits.step_period_s == 60.0);
+  CHECK(error("[limits]\nstep_period_s = 0") ==
+        "m.toml: key 'limits.step_period_s': must be > 0 (seconds of machine time per max_step): value '0'");
+  CHECK(error("[limits]\nstep_period_s = inf") == "m.toml: key 'limits.step_period_s': not a finite number: value 'inf'");
   CHECK(error("[limits]\non_step_violation = \"clamp\"") ==
         "m.toml: key 'limits.on_step_violation': must be \"refuse\" or \"split\": value '\"clamp\"'");
   CHECK(error("[nc]\nwork_offset = \"G54.1\"") == "m.toml: key 'nc.work_offset': must be one of G54 … G59: value '\"G54.1\"'");
@@ -886,6 +892,7 @@ TEST_CASE("machine config: the shipped example reads and equals the defaults", "
   CHECK(c.chain.workpiece_point_mm == d.chain.workpiece_point_mm);
   CHECK(c.limits.max_step.c_deg == d.limits.max_step.c_deg);
   CHECK(c.limits.max_offset.x_mm == d.limits.max_offset.x_mm);
+  CHECK(c.limits.step_period_s == d.limits.step_period_s);
   CHECK(c.nc.linuxcnc_interval_parameter == d.nc.linuxcnc_interval_parameter);
   CHECK_THROWS_WITH(read_machine_config("/nonexistent/m.toml"), Contains("/nonexistent/m.toml") && Contains("cannot open"));
 }

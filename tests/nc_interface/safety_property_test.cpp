@@ -191,4 +191,7 @@ TEST_CASE("safety property: 10^4 random streams never put an offset or a step be
   below = SafetyLimits{};
   below.max_offset.c_deg = 0.00003;
   CHECK_THAT(validate(below), Catch::Contains("max_offset of axis C must be at least the NC resolution"));
+  below = SafetyLimits{};
+  below.step_period_s = 0.0;
+  CHECK(validate(below) == "step_period_s must be > 0 and finite, got 0");
 }

@@ -208,3 +208,60 @@ TEST_CASE("supervisor: a sample the controller would refuse (an input beyond its
   CHECK(sup.counts().received == 6);
   CHECK(sup.counts().rejected == 1);
 }
+
+TEST_CASE("supervisor: samples far denser than a minute move the NC offsets no faster than max_step per step_period_s") {
+  // max_step of X 0.2 µm per step_period_s = 60 s (the default period). The guard off: the CP model's
+  // offsets as they are (after 2 h of CP X is beyond one max_step, so the NC steps).
+  Rig rig("rate", 6.0, "", "guard = false\n");
+  write(rig.dir / "machine.toml", "[limits.max_step]\nx_mm = 0.0002\n");
+  {
+    std::ifstream in(rig.dir / "s.toml");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    write(rig.dir / "s.toml", text + "[nc]\nmachine = \"machine.toml\"\n");
+    rig.config = supervisor::read_supervisor_config(rig.dir / "s.toml");
+  }
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  const auto x_of = [&] { return rig.bus.last("offsets")["axis"]["x_mm"].get<double>(); };
+  std::size_t row = 0;
+  std::int64_t asked = 0;
+  const auto feed = [&](const std::string& sample) {
+    sup.on_message("sample", sample, 0.0);
+    const Json request = rig.bus.last("probe/request");
+    if (!request.is_null() && request["id"].get<std::int64_t>() > asked) {
+      asked = request["id"].get<std::int64_t>();
+      sup.on_message("probe/result", rig.result(asked, Json::parse(sample)["time_s"].get<double>()), 0.0);
+    }
+  };
+  // Until the first step of the CP model's offsets.
+  while (row < rig.s.samples() && (rig.bus.last("offsets").is_null() || x_of() == 0.0)) feed(rig.sample(row++));
+  REQUIRE(row < rig.s.samples() - 1);
+  const double x0 = x_of();
+  const double t0 = rig.s.time_s[row - 1];
+  INFO("first step x " << x0 << " mm at t = " << t0 << " s");
+  REQUIRE(std::abs(x0) == Approx(0.0002).margin(1e-12));  // a whole first step: the budget of X is spent
+  // The next minute as 600 samples 0.1 s apart, then the recording's own samples a minute apart.
+  Json dense = Json::parse(rig.sample(row - 1));
+  double x_prev = x0, t_prev = t0, moved_in_minute = 0.0;
+  for (int k = 1; k < 600; ++k) {
+    dense["time_s"] = t0 + 0.1 * k;
+    feed(dense.dump());
+    const double x = x_of();
+    const double t = t0 + 0.1 * k;
+    // Over any span T an axis moves by at most max_step × (1 + T / 60 s); here from an empty budget:
+    // max_step × T / 60 s, plus the NC's resolution. Before, every sample stepped by max_step.
+    CHECK(std::abs(x - x_prev) <= 0.0002 * (t - t_prev) / 60.0 + 1e-4 + 1e-12);
+    moved_in_minute = std::max(moved_in_minute, std::abs(x - x0));
+    if (x != x_prev) {
+      x_prev = x;
+      t_prev = t;
+    }
+  }
+  CHECK(moved_in_minute <= 0.0002 + 1e-12);
+  // It does move (the budget refills), and a minute apart the steps are whole again.
+  CHECK(moved_in_minute > 0.0);
+  const double x_dense_end = x_of();
+  for (int k = 0; k < 3 && row < rig.s.samples(); ++k) feed(rig.sample(row++));
+  INFO("x " << x0 << " -> " << x_dense_end << " (dense minute) -> " << x_of() << " (three samples a minute apart)");
+  CHECK(std::abs(x_of() - x_dense_end) >= 2 * 0.0002 - 1e-12);
+  CHECK(std::abs(x_of() - x_dense_end) <= 3 * 0.0002 + 1e-12);
+}

@@ -24,6 +24,7 @@
 //   [limits]
 //   on_step_violation = "refuse"         # or "split"
 //   max_split_steps = 20
+//   step_period_s = 60.0                 # [s] machine time per max_step of the controller's offsets
 //   [limits.max_offset]                  # x_mm y_mm z_mm a_deg b_deg c_deg
 //   [limits.max_step]                    # same keys
 #include <filesystem>

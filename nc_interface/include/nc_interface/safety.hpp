@@ -29,6 +29,12 @@ enum class StepAction {
 struct SafetyLimits {
   AxisLimits max_offset{0.1, 0.1, 0.1, 0.01, 0.01, 0.01};       // |offset| allowed
   AxisLimits max_step{0.01, 0.01, 0.01, 0.001, 0.001, 0.001};   // |change| per update
+  // [s] of machine time in which an axis may move by max_step: the controller's offsets
+  // (runtime::NcCommandObserver) draw each change from a budget per axis that holds at most
+  // max_step and refills at max_step per step_period_s, so samples arriving faster do not move the
+  // offsets faster (over any span T at most max_step × (1 + T / step_period_s)). check_offsets and
+  // the gate judge one command against max_step (a command carries no time to the NC).
+  double step_period_s = 60.0;
   StepAction on_step_violation = StepAction::Refuse;
   int max_split_steps = 20;                                      // [-] more steps than this: refuse
 };

@@ -11,9 +11,12 @@
 // - They are considered at three kinds of moments: after every probe cycle, after every cycle with a
 //   model update (ModelUpdate event), and when `period_s` of scenario time has passed since the last
 //   of these. One controller cycle gives at most one moment.
-// - At such a moment the request is the target, approached from the offsets in force by at most
-//   `limits.max_step` per axis; while it falls short of the target, every following controller cycle
-//   is a moment too (one step per cycle until the target is reached). An axis_offsets command is
+// - At such a moment the request is the target, approached from the offsets in force by at most the
+//   budget of each axis: it holds at most `limits.max_step`, every step draws from it, and it refills
+//   at max_step per `limits.step_period_s` of scenario time (a rate limit: over any span T an axis
+//   moves by at most max_step × (1 + T / step_period_s), whatever the sampling); while the request
+//   falls short of the target, every following controller cycle is a moment too (one step per cycle
+//   until the target is reached). An axis_offsets command is
 //   emitted when some axis of the request differs from the last emitted command (zero at the start)
 //   by at least `resolution` (0.0001 mm / 0.0001°, the NC resolution). A refused request (beyond
 //   max_offset) stops the stepping until the next regular moment.
@@ -86,8 +89,10 @@ class NcCommandObserver : public Observer {
     nc::AxisOffsets in_force;
     bool behind = false;
     double next_periodic_s = -kInf;
+    nc::AxisLimits budget;        // [mm] / [°] what each axis may still move now (see the rule above)
+    double budget_s = -kInf;      // [s] when the budget was last refilled
   };
-  State state() const { return {last_, in_force_, behind_, next_periodic_s_}; }
+  State state() const { return {last_, in_force_, behind_, next_periodic_s_, budget_, budget_s_}; }
   // Continues from `state` (the gate takes state.in_force as the offsets in force).
   void restore(const State& state);
   // Drops the commands and decisions kept so far (commands(), recorder()): a long-running user keeps
@@ -96,6 +101,7 @@ class NcCommandObserver : public Observer {
 
  private:
   void handle(const Cycle& cycle);
+  void refill(double time_s);  // the budget grows by max_step per step_period_s since budget_s_
   nc::SafetyDecision emit(const nc::NcCommand& command, double time_s);
 
   NcObserverOptions options_;
@@ -106,6 +112,8 @@ class NcCommandObserver : public Observer {
   nc::AxisOffsets in_force_;           // what the gate let through last (zero at the start)
   bool behind_ = false;                // in_force_ has not reached the latest target yet
   double next_periodic_s_ = -kInf;     // [s]
+  nc::AxisLimits budget_;              // the rate limit's budget per axis (max_step at the start)
+  double budget_s_ = -kInf;            // [s] its last refill
   std::size_t refused_ = 0;
   std::size_t not_converged_ = 0;
   double max_non_compensable_um_per_m_ = 0.0;  // [µm/m]

@@ -102,7 +102,7 @@ class Supervisor {
   void publish(const std::string& topic, const std::string& payload, bool retained);
   bool idle() const { return !outstanding_ && held_.empty() && !result_; }
   std::string extras_json() const;
-  void restore_extras(const std::string& json);
+  void restore_extras(const std::string& json, double snapshot_s);  // snapshot_s: the snapshot's time
   void begin_or_resume();
   // The NC (supervisor_nc.cpp): deliver what the gate let through in this cycle, roll back to what the
   // NC is known to hold on a failure; read back and journal the compensation in force for a probe;
