@@ -243,6 +243,12 @@ void run_replay(const ReplayArgs& a) {
     }
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
+  // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes.
+  for (const auto& [name, scenario] : cases)
+    if (!scenario.time_s.empty() && params.learning_since_s > scenario.time_s.back())
+      throw UsageError("--since " + a.since + " h is after the end of " + (a.file.empty() ? "case " : "") + name +
+                       " (its last sample is at " + common::shortest_text(scenario.time_s.back() / 3600.0) +
+                       " h of scenario time): the controller would never learn from a probe");
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;

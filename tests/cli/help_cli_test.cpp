@@ -102,6 +102,9 @@ TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message o
   check_usage_error("replay --case C --cp", "--cp");
   check_usage_error("replay --case C --since inf", "--since: 'inf' is not a number >= 0");
   check_usage_error("replay --case C --since -2", "--since");
+  // After the end of the recording: nothing would be learned (before: a table of dashes, exit 0).
+  check_usage_error("replay --case A --since 200",
+                    "--since 200 h is after the end of case A (its last sample is at 192 h of scenario time)");
   check_usage_error("bench --repeat x", "--repeat");
   check_usage_error("db", "A subcommand is required");
   check_usage_error("db info", "FILE is required");
