@@ -33,7 +33,8 @@ void run_report(const ReportArgs& a) {
     throw UsageError(std::string("--run: ") + e.what());
   } catch (const storage::StorageError& e) {
     // The file named is not a history this alc can read: the user's input is wrong.
-    if (e.kind == storage::StorageErrorKind::NotADatabase || e.kind == storage::StorageErrorKind::ForeignDatabase ||
+    if (e.kind == storage::StorageErrorKind::NotADatabase || e.kind == storage::StorageErrorKind::Empty ||
+        e.kind == storage::StorageErrorKind::ForeignDatabase ||
         e.kind == storage::StorageErrorKind::NotFound || e.kind == storage::StorageErrorKind::NewerSchema)
       throw UsageError(e.what());
     throw;

@@ -199,6 +199,7 @@ std::optional<RunStatus> run_status_from_string(const std::string& text) {
 const char* to_string(StorageErrorKind kind) {
   switch (kind) {
     case StorageErrorKind::NotADatabase: return "not a database";
+    case StorageErrorKind::Empty: return "empty";
     case StorageErrorKind::ForeignDatabase: return "database of another program";
     case StorageErrorKind::NewerSchema: return "newer schema";
     case StorageErrorKind::Locked: return "locked";

@@ -172,7 +172,7 @@ void check_schema(Database& db, const fs::path& file, bool write, const HeaderFa
       throw StorageError(StorageErrorKind::ForeignDatabase, file,
                          "an SQLite database of another program (no ALC application_id; holds " + names +
                              "); left untouched");
-    if (!write) throw StorageError(StorageErrorKind::NotADatabase, file, "an empty SQLite database, not an ALC history");
+    if (!write) throw StorageError(StorageErrorKind::Empty, file, "an empty SQLite database, not an ALC history");
     if (facts.exists && !facts.empty) require_sound_pages(db, file);
     version_found = 0;
     return;
@@ -457,7 +457,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   if (!facts.exists && !write)
     throw StorageError(StorageErrorKind::NotFound, file, "no such file");
   if (facts.empty && !write)
-    throw StorageError(StorageErrorKind::NotADatabase, file, "an empty file, not an ALC history");
+    throw StorageError(StorageErrorKind::Empty, file, "an empty file, not an ALC history");
   const fs::path parent = parent_of(file);
   // A reader in a directory it cannot write to: WAL needs FILE-shm beside the file, which cannot be
   // created, and SQLite would fail with "attempt to write a readonly database". With no FILE-wal

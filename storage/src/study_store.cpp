@@ -45,38 +45,38 @@ struct StudyStore::Impl {
 };
 
 // No bytes, or SQLite's header with no table and no application_id (what a study killed before its
-// first commit leaves).
+// first commit leaves): open_database's StorageErrorKind::Empty.
 bool StudyStore::holds_nothing(const fs::path& file) {
   std::error_code ec;
-  const auto size = fs::file_size(file, ec);
-  if (ec) return false;
-  if (size == 0) return true;
-  sqlite3* h = nullptr;
-  bool nothing = false;
-  if (sqlite3_open_v2(file.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-    sqlite3_stmt* st = nullptr;
-    if (sqlite3_prepare_v2(h,
-                           "SELECT (SELECT count(*) FROM sqlite_schema) = 0 AND "
-                           "(SELECT application_id FROM pragma_application_id) = 0",
-                           -1, &st, nullptr) == SQLITE_OK &&
-        sqlite3_step(st) == SQLITE_ROW)
-      nothing = sqlite3_column_int(st, 0) != 0;
-    sqlite3_finalize(st);
+  if (!fs::exists(file, ec)) return false;
+  try {
+    open_read(file);
+  } catch (const StorageError& e) {
+    if (e.kind == StorageErrorKind::Empty) return true;
   }
-  sqlite3_close_v2(h);
-  return nothing;
+  return false;
 }
 
 std::optional<StudyHeader> StudyStore::header_of(const fs::path& file) {
   std::error_code ec;
-  if (!fs::exists(file, ec) || holds_nothing(file)) return std::nullopt;
-  auto db = open_read(file);
-  return read_header(*db);
+  if (!fs::exists(file, ec)) return std::nullopt;
+  try {
+    auto db = open_read(file);
+    return read_header(*db);
+  } catch (const StorageError& e) {
+    if (e.kind == StorageErrorKind::Empty) return std::nullopt;
+    throw;
+  }
 }
 
 std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
-  if (holds_nothing(file)) return {};
-  auto db = open_read(file);
+  std::unique_ptr<detail::Database> db;
+  try {
+    db = open_read(file);
+  } catch (const StorageError& e) {
+    if (e.kind == StorageErrorKind::Empty) return {};
+    throw;
+  }
   std::vector<StudyRowRecord> rows;
   if (!db->table_exists("study_rows")) return rows;
   detail::Statement st(*db,

@@ -482,7 +482,7 @@ TEST_CASE("empty and missing files", "[storage]") {
   CHECK_NOTHROW(HistoryWriter(dir / "made/for/you/h.sqlite", create));
   const auto empty = dir / "empty.sqlite";
   test::write_bytes(empty, "");
-  CHECK(error_of([&] { HistoryReader reader(empty); }).kind == StorageErrorKind::NotADatabase);
+  CHECK(error_of([&] { HistoryReader reader(empty); }).kind == StorageErrorKind::Empty);
   CHECK_NOTHROW(HistoryWriter(empty));  // a zero-byte file holds nothing to lose: it becomes a history
   CHECK(HistoryReader(empty).schema_version() == kSchemaVersion);
 }

@@ -8,6 +8,8 @@ namespace alc::storage {
 
 enum class StorageErrorKind {
   NotADatabase,     // the file is not an SQLite database (no SQLite header)
+  Empty,            // opened for reading: no bytes, or an SQLite database with no table and no
+                    // application_id (what a writer killed before its first commit leaves)
   ForeignDatabase,  // an SQLite database of another program (application_id or tables)
   NewerSchema,      // written by a newer ALC (user_version above ours)
   Locked,           // another connection holds the write lock longer than the busy timeout
