@@ -10,8 +10,18 @@
 #include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/log.hpp"
+#include "scenarios/scenario_csv.hpp"
+#include "storage/storage_error.hpp"
 
 namespace {
+
+// A history database the command was given that it cannot take: the user's input is wrong (exit 2),
+// not the run (a locked, full, read-only or damaged file: exit 1).
+bool wrong_input(alc::storage::StorageErrorKind kind) {
+  using K = alc::storage::StorageErrorKind;
+  return kind == K::NotFound || kind == K::NotADatabase || kind == K::Empty || kind == K::ForeignDatabase ||
+         kind == K::NewerSchema;
+}
 
 // A result that did not reach its reader is a failure: stdout is flushed and checked once, at exit
 // (a full disk, /dev/full, a closed pipe). `code` stays if it already says failure.
@@ -76,6 +86,13 @@ int run(int argc, char** argv) {
   } catch (const alc::cli::UsageError& e) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return 2;
+  } catch (const alc::scenarios::ScenarioCsvError& e) {
+    // A scenario CSV that is missing or breaks the contract: input, like a bad config or grid.
+    std::cerr << "alc: error: " << e.what() << "\n";
+    return 2;
+  } catch (const alc::storage::StorageError& e) {
+    std::cerr << "alc: error: " << e.what() << "\n";
+    return wrong_input(e.kind) ? 2 : 1;
   } catch (const std::exception& e) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return 1;

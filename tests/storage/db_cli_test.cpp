@@ -126,13 +126,25 @@ TEST_CASE("alc db commands name the file and the cause for a file that is not a 
   test::write_bytes(file, std::string(4096, 'x'));
   for (const std::string command : {"info", "check"}) {
     const Outcome outcome = run_alc("db " + command + " " + quoted(file));
-    CHECK(outcome.exit_code == 1);
+    CHECK(outcome.exit_code == 2);  // the input named is wrong (README: exit 2), as for report
     CHECK_THAT(outcome.output, Catch::Contains(file.string()) && Catch::Contains("not an SQLite database"));
   }
   CHECK(test::read_bytes(file) == std::string(4096, 'x'));
   const Outcome missing = run_alc("db info " + quoted(dir / "missing.sqlite"));
-  CHECK(missing.exit_code == 1);
+  CHECK(missing.exit_code == 2);
   CHECK_THAT(missing.output, Catch::Contains("no such file"));
+  // An empty file: its own finding, also exit 2.
+  const auto empty = dir / "empty.sqlite";
+  test::write_bytes(empty, "");
+  const Outcome nothing = run_alc("db info " + quoted(empty));
+  CHECK(nothing.exit_code == 2);
+  CHECK_THAT(nothing.output, Catch::Contains(empty.string()) && Catch::Contains("an empty file, not an ALC history"));
+  // A damaged history is not a wrong input but a failure (exit 1; 'alc db check' lists the damage).
+  const auto truncated = dir / "truncated.sqlite";
+  test::write_bytes(truncated, std::string("SQLite format 3\0", 16) + std::string(40, '\0'));
+  const Outcome damaged = run_alc("db info " + quoted(truncated));
+  CHECK(damaged.exit_code == 1);
+  CHECK_THAT(damaged.output, Catch::Contains("truncated"));
 }
 
 TEST_CASE("alc db export refuses to write its CSV over the database or its journal", "[storage][cli]") {
