@@ -10,67 +10,81 @@ namespace alc::runtime {
 
 namespace {
 
-constexpr std::string_view kNumber = "a number >= 0";
-constexpr std::string_view kPositive = "a number > 0";
-constexpr std::string_view kPositiveOrInf = "a number > 0 or inf";
-constexpr std::string_view kFlag = "true or false";
+constexpr Domain kNumber = Domain::NonNegative;
+constexpr Domain kPositive = Domain::Positive;
+constexpr Domain kPositiveOrInf = Domain::PositiveOrInf;
+constexpr Domain kFlag = Domain::Flag;
 
-[[noreturn]] void refuse(std::string_view name, std::string_view text, std::string_view values) {
-  throw std::invalid_argument(std::string(name) + ": '" + std::string(text) + "' is not " + std::string(values));
+// A row of the table (choices: Domain::Choice's words).
+ParameterOption row(std::string_view name, std::string_view unit, Domain domain, std::string_view help, Stage stage,
+                    std::string_view field, std::string_view choices = {}) {
+  return ParameterOption{name, unit, domain, help, stage, field, choices};
 }
 
-bool parse_flag(std::string_view name, std::string_view text) {
-  if (text == "true") return true;
-  if (text == "false") return false;
-  refuse(name, text, kFlag);
+[[noreturn]] void refuse(std::string_view name, std::string_view text, const std::string& values) {
+  throw std::invalid_argument(std::string(name) + ": '" + std::string(text) + "' is not " + values);
 }
 
 }  // namespace
 
 const std::vector<ParameterOption>& parameter_options() {
   static const std::vector<ParameterOption> options = {
-      {"cp", "h", kPositive, "Calibration phase length", Stage::Start, "cp_duration_s"},
-      {"cp-interval", "min", kPositive, "Probe interval during CP", Stage::Start, "cp_interval_s"},
-      {"interval", "h", kPositiveOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"},
-      {"ng-interval", "min", kPositiveOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"},
-      {"ng-meas", "-", "a whole number >= 0 or inf", "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"},
-      {"update", "h", kPositiveOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"},
-      {"acl-lin", "µm", kPositive, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"},
-      {"acl-ang", "µm/m", kPositive, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"},
-      {"window", "h", kPositiveOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"},
-      {"since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"},
-      {"half-life", "h", kPositiveOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"},
-      {"method", "-", "fixed-poles or output-error", "Identification route", Stage::Start, "method"},
-      {"max-order", "-", "a whole number >= 1", "Highest number of poles per input tried", Stage::Start, "max_order"},
-      {"structure-refresh", "-", "a number >= 1 or inf", "Data-span growth factor that triggers a structure search",
-       Stage::CpEnd, "structure_refresh"},
-      {"no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"},
-      {"no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"},
-      {"schedule", "-", "paper or adaptive", "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
-       Stage::CpEnd, "schedule_kind"},
-      {"uncertainty-fraction", "-", "a number > 0",
+      row("cp", "h", kPositive, "Calibration phase length", Stage::Start, "cp_duration_s"),
+      row("cp-interval", "min", kPositive, "Probe interval during CP", Stage::Start, "cp_interval_s"),
+      row("interval", "h", kPositiveOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"),
+      row("ng-interval", "min", kPositiveOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"),
+      row("ng-meas", "-", Domain::WholeOrInf, "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"),
+      row("update", "h", kPositiveOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"),
+      row("acl-lin", "µm", kPositive, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"),
+      row("acl-ang", "µm/m", kPositive, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"),
+      row("window", "h", kPositiveOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"),
+      row("since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"),
+      row("half-life", "h", kPositiveOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"),
+      row("method", "-", Domain::Choice, "Identification route", Stage::Start, "method", "fixed-poles or output-error"),
+      row("max-order", "-", Domain::Order, "Highest number of poles per input tried", Stage::Start, "max_order"),
+      row("structure-refresh", "-", Domain::AtLeastOneOrInf, "Data-span growth factor that triggers a structure search",
+       Stage::CpEnd, "structure_refresh"),
+      row("no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"),
+      row("no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"),
+      row("schedule", "-", Domain::Choice, "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
+       Stage::CpEnd, "schedule_kind", "paper or adaptive"),
+      row("uncertainty-fraction", "-", kPositive,
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL (above 1: a budget "
-       "beyond the ACL)", Stage::CpEnd, "uncertainty_fraction"},
-      {"min-interval", "h", kPositive, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"},
-      {"max-interval", "h", kPositiveOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
-       Stage::CpEnd, "max_interval_s"},
-      {"guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
-       Stage::CpEnd, "guard"},
-      {"plausible-lin", "µm", kPositiveOrInf,
-       "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"},
-      {"plausible-ang", "µm/m", kPositiveOrInf,
+       "beyond the ACL)", Stage::CpEnd, "uncertainty_fraction"),
+      row("min-interval", "h", kPositive, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"),
+      row("max-interval", "h", kPositiveOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
+       Stage::CpEnd, "max_interval_s"),
+      row("guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
+       Stage::CpEnd, "guard"),
+      row("plausible-lin", "µm", kPositiveOrInf,
+       "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"),
+      row("plausible-ang", "µm/m", kPositiveOrInf,
        "A probe's angular error beyond ± this is a sensor fault: set aside for that output (inf: no limit)",
-       Stage::Start, "plausible_angular_um_per_m"},
-      {"plausible-temp", "°C", kPositiveOrInf,
+       Stage::Start, "plausible_angular_um_per_m"),
+      row("plausible-temp", "°C", kPositiveOrInf,
        "A temperature input (T_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
-       Stage::Start, "plausible_temperature_C"},
-      {"plausible-speed", "rpm", kPositiveOrInf,
-       "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start, "plausible_speed_rpm"},
-      {"plausible-other", "-", kPositiveOrInf,
+       Stage::Start, "plausible_temperature_C"),
+      row("plausible-speed", "rpm", kPositiveOrInf,
+       "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start, "plausible_speed_rpm"),
+      row("plausible-other", "-", kPositiveOrInf,
        "Any other input (machine states, ...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
-       Stage::Start, "plausible_other"},
+       Stage::Start, "plausible_other"),
   };
   return options;
+}
+
+std::string values_text(const ParameterOption& option) {
+  switch (option.domain) {
+    case Domain::NonNegative: return "a number >= 0";
+    case Domain::Positive: return "a number > 0";
+    case Domain::PositiveOrInf: return "a number > 0 or inf";
+    case Domain::AtLeastOneOrInf: return "a number >= 1 or inf";
+    case Domain::WholeOrInf: return "a whole number >= 0 or inf";
+    case Domain::Order: return "a whole number from 1 to 16";
+    case Domain::Flag: return "true or false";
+    case Domain::Choice: return std::string(option.choices);
+  }
+  return {};
 }
 
 const ParameterOption* find_parameter_option(std::string_view name) {
@@ -82,55 +96,67 @@ const ParameterOption* find_parameter_option(std::string_view name) {
 void set_parameter(AlcParameters& p, std::string_view name, std::string_view text) {
   const ParameterOption* o = find_parameter_option(name);
   if (!o) throw std::invalid_argument("'" + std::string(name) + "' is not a parameter option");
-  // Each value within what its option takes (o->values), so that a grid is judged value by value
+  // Each value parsed and checked by its option's domain, so that a grid is judged value by value
   // before any run: "interval = [0]" is refused there, not found as error rows after the study.
-  const auto within = [&](double v) {
-    const std::string_view values = o->values;
-    const bool ok = values.rfind(kPositive, 0) == 0               ? v > 0.0
-                    : values.rfind("a number >= 1", 0) == 0       ? v >= 1.0
-                    : values.rfind("a whole number >= 0", 0) == 0 ? (std::isinf(v) || v == std::floor(v))
-                                                                   : true;
-    if (!ok) refuse(name, text, values);
-    return v;
+  const auto value = [&](double scale) {
+    const Domain d = o->domain;
+    const bool inf = d == Domain::PositiveOrInf || d == Domain::AtLeastOneOrInf || d == Domain::WholeOrInf;
+    double v = 0.0;
+    try {
+      v = common::parse_number(name, text, true);
+    } catch (const std::invalid_argument& e) {
+      // "1e999": parse_number's own words say more; anything else is not a value of the domain.
+      if (std::string_view(e.what()).find("out of the range") != std::string_view::npos) throw;
+      refuse(name, text, values_text(*o));
+    }
+    if (std::isinf(v) && !inf) refuse(name, text, values_text(*o));
+    const bool ok = d == Domain::Positive || d == Domain::PositiveOrInf ? v > 0.0
+                    : d == Domain::AtLeastOneOrInf                       ? v >= 1.0
+                    : d == Domain::WholeOrInf                            ? (std::isinf(v) || v == std::floor(v))
+                    : d == Domain::Order                                 ? (v >= 1.0 && v <= 16.0 && v == std::floor(v))
+                                                                         : d == Domain::NonNegative;
+    if (!ok) refuse(name, text, values_text(*o));
+    return v * scale;
   };
-  const auto number = [&](double scale) { return within(common::parse_number(name, text, false)) * scale; };
-  const auto number_or_inf = [&](double scale) { return within(common::parse_number(name, text, true)) * scale; };
-  if (name == "cp") p.cp_duration_s = number(3600.0);
-  else if (name == "cp-interval") p.cp_interval_s = number(60.0);
-  else if (name == "interval") p.post_cp_interval_s = number_or_inf(3600.0);
-  else if (name == "ng-interval") p.ng_interval_s = number_or_inf(60.0);
-  else if (name == "ng-meas") p.ng_measurements = number_or_inf(1.0);
-  else if (name == "update") p.update_interval_s = number_or_inf(3600.0);
-  else if (name == "acl-lin") p.acl_linear_um = number(1.0);
-  else if (name == "acl-ang") p.acl_angular_um_per_m = number(1.0);
-  else if (name == "window") p.learning_window_s = number_or_inf(3600.0);
-  else if (name == "since") p.learning_since_s = number(3600.0);
-  else if (name == "half-life") p.identification.forgetting_half_life_s = number_or_inf(3600.0);
-  else if (name == "structure-refresh") p.structure_refresh = number_or_inf(1.0);
-  else if (name == "no-refit") p.refit_on_probe = !parse_flag(name, text);
-  else if (name == "no-confirm") p.confirm_breach = !parse_flag(name, text);
-  else if (name == "guard") p.guard = parse_flag(name, text);
-  else if (name == "uncertainty-fraction") p.uncertainty_fraction = number(1.0);
-  else if (name == "min-interval") p.min_interval_s = number(3600.0);
-  else if (name == "max-interval") p.max_interval_s = number_or_inf(3600.0);
-  else if (name == "plausible-lin") p.plausible_linear_um = number_or_inf(1.0);
-  else if (name == "plausible-ang") p.plausible_angular_um_per_m = number_or_inf(1.0);
-  else if (name == "plausible-temp") p.plausible_temperature_C = number_or_inf(1.0);
-  else if (name == "plausible-speed") p.plausible_speed_rpm = number_or_inf(1.0);
-  else if (name == "plausible-other") p.plausible_other = number_or_inf(1.0);
+  const auto flag = [&] {
+    if (text == "true") return true;
+    if (text == "false") return false;
+    refuse(name, text, values_text(*o));
+  };
+  if (name == "cp") p.cp_duration_s = value(3600.0);
+  else if (name == "cp-interval") p.cp_interval_s = value(60.0);
+  else if (name == "interval") p.post_cp_interval_s = value(3600.0);
+  else if (name == "ng-interval") p.ng_interval_s = value(60.0);
+  else if (name == "ng-meas") p.ng_measurements = value(1.0);
+  else if (name == "update") p.update_interval_s = value(3600.0);
+  else if (name == "acl-lin") p.acl_linear_um = value(1.0);
+  else if (name == "acl-ang") p.acl_angular_um_per_m = value(1.0);
+  else if (name == "window") p.learning_window_s = value(3600.0);
+  else if (name == "since") p.learning_since_s = value(3600.0);
+  else if (name == "half-life") p.identification.forgetting_half_life_s = value(3600.0);
+  else if (name == "structure-refresh") p.structure_refresh = value(1.0);
+  else if (name == "no-refit") p.refit_on_probe = !flag();
+  else if (name == "no-confirm") p.confirm_breach = !flag();
+  else if (name == "guard") p.guard = flag();
+  else if (name == "uncertainty-fraction") p.uncertainty_fraction = value(1.0);
+  else if (name == "min-interval") p.min_interval_s = value(3600.0);
+  else if (name == "max-interval") p.max_interval_s = value(3600.0);
+  else if (name == "plausible-lin") p.plausible_linear_um = value(1.0);
+  else if (name == "plausible-ang") p.plausible_angular_um_per_m = value(1.0);
+  else if (name == "plausible-temp") p.plausible_temperature_C = value(1.0);
+  else if (name == "plausible-speed") p.plausible_speed_rpm = value(1.0);
+  else if (name == "plausible-other") p.plausible_other = value(1.0);
   else if (name == "schedule") {
     if (text == "paper") p.schedule_kind = AlcParameters::Schedule::Paper;
     else if (text == "adaptive") p.schedule_kind = AlcParameters::Schedule::Adaptive;
-    else refuse(name, text, o->values);
+    else refuse(name, text, values_text(*o));
   }
   else if (name == "method") {
     if (text == "fixed-poles") p.identification.method = IdentificationMethod::FixedPoles;
     else if (text == "output-error") p.identification.method = IdentificationMethod::OutputError;
-    else refuse(name, text, o->values);
+    else refuse(name, text, values_text(*o));
   } else if (name == "max-order") {
-    const double v = number(1.0);
-    if (v < 1.0 || v > 16.0 || v != std::floor(v)) refuse(name, text, o->values);
-    p.identification.max_order = static_cast<int>(v);
+    p.identification.max_order = static_cast<int>(value(1.0));
   }
 }
 

@@ -108,7 +108,7 @@ TEST_CASE("alc replay --resume refuses other parameters than the stored run's") 
 TEST_CASE("alc replay: usage errors name the option and value") {
   const Run bad = alc("replay --case A --interval soon");
   CHECK(bad.exit_code == 2);
-  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a number >= 0 or inf"));
+  CHECK_THAT(bad.err, Catch::Matchers::Contains("--interval: 'soon' is not a number > 0 or inf"));
   const Run neither = alc("replay");
   CHECK(neither.exit_code == 2);
   CHECK_THAT(neither.err, Catch::Matchers::Contains("give exactly one of FILE.csv or --case"));
@@ -150,7 +150,7 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"replay --case A --interval 1e999", "--interval: '1e999' is out of the range of a double"},
       {"replay --case A --db x.sqlite --stop-at inf", "--stop-at: 'inf' is not a number >= 0"},
       {"replay --case A --kill-at 1h", "--kill-at: '1h' is not a number >= 0"},
-      {"replay --case A --cp 0x10", "cp: '0x10' is not a number >= 0"},
+      {"replay --case A --cp 0x10", "--cp: '0x10' is not a number > 0"},
       {"--log-max-bytes 1e3 replay --case A", "--log-max-bytes: '1e3' is not a whole number from 1 to"},
       {"--log-max-files -1 replay --case A", "--log-max-files: '-1' is not a whole number from 0 to"},
       {"bench --repeat 0x2", "--repeat: '0x2' is not a whole number from 1 to 1000000"},
@@ -164,7 +164,7 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"study --grid paper --case A --shard 0x1/2", "--shard: '0x1/2' is not I/N"},
       {"study --case A --bench --bench-seed x", "--bench-seed must be a whole number from 0 to 18446744073709551615, got 'x'"},
       {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
-      {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number >= 0 or inf"},
+      {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number > 0 or inf"},
       // What the controller refuses is named by the option and the text given (the name of a grid key and
       // of the supervisor's [controller] key too, so without "--"), then by its field in the controller.
       // A value its option never takes is refused by the option, as a grid refuses it before any run.

@@ -59,7 +59,7 @@ TEST_CASE("a TOML grid is the product of its axes in file order, plus the fixed 
 }
 
 TEST_CASE("a bad grid names the file, line, key and value before any run") {
-  CHECK(error_of("cp = [6.5, -1]\n") == "g.toml:1:12: key 'cp', value '-1': cp: '-1' is not a number >= 0");
+  CHECK(error_of("cp = [6.5, -1]\n") == "g.toml:1:12: key 'cp', value '-1': cp: '-1' is not a number > 0");
   CHECK(error_of("cp = [6.5]\nintervall = [2]\n").rfind("g.toml:2:13: 'intervall' is not a grid key", 0) == 0);
   CHECK(error_of("cp = 6.5\n").find("key 'cp' must be a list of values") != std::string::npos);
   CHECK(error_of("cp = []\n").find("key 'cp' has no values") != std::string::npos);

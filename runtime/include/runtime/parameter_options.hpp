@@ -22,14 +22,31 @@ enum class Stage {
   Breach,  // from the first ACL breach after CP (NG interval, NG measurements, breach confirmation)
 };
 
+// What an option takes. set_parameter parses and checks a value by it, and its message says it
+// (values_text): the one place where the bound of an option is written.
+enum class Domain {
+  NonNegative,      // a number >= 0
+  Positive,         // a number > 0
+  PositiveOrInf,    // a number > 0 or inf
+  AtLeastOneOrInf,  // a number >= 1 or inf
+  WholeOrInf,       // a whole number >= 0 or inf
+  Order,            // a whole number from 1 to 16
+  Flag,             // true or false
+  Choice,           // one of the option's `choices`
+};
+
 struct ParameterOption {
   std::string_view name;     // "cp": --cp on the command line, a key of a study grid
   std::string_view unit;     // "h", "min", "µm", "-"
-  std::string_view values;   // what it takes, for messages: "a number >= 0 or inf", "true or false"
+  Domain domain = Domain::Positive;
   std::string_view help;
   Stage stage = Stage::Start;
   std::string_view field;    // the AlcParameters field it sets, as validate() names it ("cp_duration_s")
+  std::string_view choices;  // Domain::Choice: the words it takes, "paper or adaptive"
 };
+
+// What an option takes, for messages: "a number > 0 or inf", "true or false", "paper or adaptive".
+std::string values_text(const ParameterOption& option);
 
 // Every option, in the order of `alc replay --help`.
 const std::vector<ParameterOption>& parameter_options();
