@@ -68,27 +68,6 @@ void run_check(const std::string& file) {
   throw std::runtime_error(file + ": " + std::to_string(report.problems.size()) + " problem(s) found");
 }
 
-// Throws UsageError if `target` is the database FILE itself or one of its journal files
-// (FILE-wal, FILE-shm, FILE-journal), under any spelling: same path after resolving symlinks and
-// `.`/`..`, or the same file (hard link).
-void refuse_export_over_database(const std::string& file, const std::filesystem::path& target) {
-  namespace fs = std::filesystem;
-  std::error_code ec1, ec2;
-  const fs::path database = fs::weakly_canonical(fs::absolute(fs::path(file), ec1), ec1);
-  const fs::path out = fs::weakly_canonical(fs::absolute(target, ec2), ec2);
-  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
-    const fs::path own = fs::path(file + suffix);
-    const fs::path own_canonical = database.string() + suffix;
-    std::error_code eq;
-    const bool same = (!ec1 && !ec2 && out == own_canonical) ||
-                      (fs::exists(own, eq) && fs::exists(target, eq) && fs::equivalent(own, target, eq));
-    if (same)
-      throw UsageError("--out '" + target.string() + "' is the history database" +
-                       (*suffix ? std::string(" journal '") + file + suffix + "'" : " '" + file + "'") +
-                       " itself; exporting there would replace it with CSV; choose another --out file");
-  }
-}
-
 void run_export(const std::string& file, const std::string& table, const std::string& out) {
   const auto& tables = storage::exportable_tables();
   if (std::find(tables.begin(), tables.end(), table) == tables.end()) {
@@ -102,7 +81,7 @@ void run_export(const std::string& file, const std::string& table, const std::st
   }
   // The rename below would replace the database (or its WAL journal) with CSV.
   const std::filesystem::path target(out);
-  refuse_export_over_database(file, target);
+  refuse_output_over_database("--out", target, file, "the history database");
   // Written beside the target and renamed, so a reader never sees half a file.
   io::write_file_atomically(target, [&](std::ostream& stream) { storage::export_table_csv(file, table, stream); });
 }
@@ -121,6 +100,26 @@ void run_bench(const storage::BenchOptions& options, const std::string& dir) {
 }
 
 }  // namespace
+
+void refuse_output_over_database(const std::string& option, const std::filesystem::path& target,
+                                 const std::string& database, const std::string& what) {
+  namespace fs = std::filesystem;
+  if (database.empty() || target.empty() || target == "-") return;
+  std::error_code ec1, ec2;
+  const fs::path db = fs::weakly_canonical(fs::absolute(fs::path(database), ec1), ec1);
+  const fs::path out = fs::weakly_canonical(fs::absolute(target, ec2), ec2);
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+    const fs::path own = fs::path(database + suffix);
+    const fs::path own_canonical = db.string() + suffix;
+    std::error_code eq;
+    const bool same = (!ec1 && !ec2 && out == own_canonical) ||
+                      (fs::exists(own, eq) && fs::exists(target, eq) && fs::equivalent(own, target, eq));
+    if (same)
+      throw UsageError(option + " '" + target.string() + "' is " + what +
+                       (*suffix ? std::string(" journal '") + database + suffix + "'" : " '" + database + "'") +
+                       " itself; writing there would replace it; choose another " + option + " file");
+  }
+}
 
 void add_db_command(CLI::App& app) {
   auto* db = app.add_subcommand("db", "Inspect, check, export and benchmark a history database (docs/storage.md)");

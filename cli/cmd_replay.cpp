@@ -243,6 +243,7 @@ void run_replay(const ReplayArgs& a) {
     }
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
+  refuse_output_over_database("--residuals", a.residuals, a.db, "the history database");
   // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes.
   for (const auto& [name, scenario] : cases)
     if (!scenario.time_s.empty() && params.learning_since_s > scenario.time_s.back())

@@ -3,6 +3,7 @@
 // A command's callback throws on error; main() prints the message to stderr and exits non-zero.
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -19,6 +20,13 @@ struct ExitStatus : std::runtime_error {
   ExitStatus(int status, const std::string& message) : std::runtime_error(message), code(status) {}
   int code;
 };
+
+// Throws UsageError if the output file `target` of `option` ("--out") is the SQLite file `database`
+// (`what`: "the history database") or one of its journals (-wal, -shm, -journal), under any spelling:
+// the same path after resolving symlinks and `.`/`..`, or the same file (a hard link). Writing there
+// would replace the database with the output. Nothing to check for an empty database or target, or "-".
+void refuse_output_over_database(const std::string& option, const std::filesystem::path& target,
+                                 const std::string& database, const std::string& what);
 
 // [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.
 double proc_status_kb(const std::string& field);

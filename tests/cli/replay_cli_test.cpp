@@ -328,3 +328,34 @@ TEST_CASE("alc replay: a run's identity is the parsed parameters, not their text
   CHECK(other.exit_code == 2);
   CHECK_THAT(other.err, Catch::Matchers::Contains("/parameters/learning_window_s: stored 360000.0, given 1209600.0"));
 }
+
+TEST_CASE("an output file that is the database read or written is refused, and the database is left as it was") {
+  const fs::path dir = work_dir() / "out_over_db";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string db = (dir / "h.sqlite").string();
+  REQUIRE(alc("replay --case A --cp 1 --db \"" + db + "\" --stop-at 2").exit_code == 0);
+  fs::create_symlink(dir / "h.sqlite", dir / "link.sqlite");
+  const std::string before = slurp(db);
+  const std::string spelled_otherwise = (dir / "." / "h.sqlite").string();
+  const std::pair<std::string, std::string> commands[] = {
+      {"report \"" + db + "\" --out \"" + db + "\"", "--out '" + db + "' is the database to report '" + db + "' itself"},
+      {"report \"" + db + "\" --out \"" + db + "-wal\"", "is the database to report journal '" + db + "-wal' itself"},
+      {"report \"" + db + "\" --out \"" + (dir / "link.sqlite").string() + "\"", "is the database to report"},
+      {"replay --case A --cp 1 --db \"" + db + "\" --residuals \"" + spelled_otherwise + "\"",
+       "--residuals '" + spelled_otherwise + "' is the history database"},
+      {"study --case A --grid \"" + (dir / "g.toml").string() + "\" --db \"" + db + "x\" --csv \"" + db + "x\"",
+       "--csv '" + db + "x' is the study database"},
+      {"study report \"" + db + "\" --csv \"" + db + "\"", "--csv '" + db + "' is the study database"},
+  };
+  { std::ofstream(dir / "g.toml") << "cp = [6.5]\n"; }
+  for (const auto& [command, says] : commands) {
+    INFO("alc " << command);
+    const Run r = alc(command);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(says) && Catch::Matchers::Contains("choose another"));
+    CHECK(slurp(db) == before);  // before: report --out DB replaced the history with HTML, exit 0
+  }
+  CHECK_FALSE(fs::exists(db + "x"));
+  fs::remove_all(dir);
+}
