@@ -25,6 +25,7 @@
 #include "runtime/report_json.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/scenario_csv.hpp"
+#include "storage/history_reader.hpp"
 
 namespace alc::cli {
 
@@ -222,6 +223,49 @@ void print_nc_summary(const std::string& source, const std::filesystem::path& di
   std::cerr << "\n";
 }
 
+enum class ResumePlan { Begin, Resume, Stored };
+
+// Per source (with the identity it would store): Resume its unfinished run; Stored for a finished
+// run of the same identity (its stored indicators in `stored`); Begin where the history has no run
+// of it. Refused (UsageError, nothing changed) when a finished run has another identity, or when
+// nothing is left to resume (no run at all, or every one finished).
+std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std::pair<std::string, std::string>>& sources,
+                                    std::vector<std::optional<runtime::ReplayReport>>& stored) {
+  const storage::HistoryReader history(db);
+  const auto runs = history.runs();
+  std::vector<ResumePlan> plans;
+  bool any_run = false, any_open = false;
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const auto& [source, identity] = sources[k];
+    const storage::RunRecord* latest = nullptr;
+    for (const auto& r : runs)
+      if (r.source == source) latest = &r;
+    if (latest == nullptr) {
+      plans.push_back(ResumePlan::Begin);
+      continue;
+    }
+    any_run = true;
+    if (latest->status != storage::RunStatus::Finished) {
+      plans.push_back(ResumePlan::Resume);  // RunLifecycle judges its identity
+      any_open = true;
+      continue;
+    }
+    if (latest->config_json != identity)
+      throw UsageError(db + ": the finished run " + std::to_string(latest->run_id) + " of '" + source +
+                       "' was made with other parameters or data; resume the cases one by one or give another --db");
+    const auto indicators = history.indicators(latest->run_id);
+    if (!indicators)
+      throw UsageError(db + ": the finished run " + std::to_string(latest->run_id) + " of '" + source +
+                       "' has no stored indicators to show");
+    stored[k] = runtime::report_from_json(nlohmann::json::parse(indicators->report_json));
+    plans.push_back(ResumePlan::Stored);
+  }
+  if (!any_run) throw UsageError(db + ": no run of these cases to resume");
+  if (!any_open && std::find(plans.begin(), plans.end(), ResumePlan::Begin) == plans.end())
+    throw UsageError(db + ": nothing to resume: every case's run is finished");
+  return plans;
+}
+
 void run_replay(const ReplayArgs& a) {
   if (a.file.empty() == a.case_name.empty()) throw UsageError("give exactly one of FILE.csv or --case");
   const AlcParameters params = parameters_from(a);
@@ -274,17 +318,40 @@ void run_replay(const ReplayArgs& a) {
     throw UsageError("--dialect needs --nc-out");
   }
 
-  KillSwitch kill;
-  std::vector<std::pair<std::string, runtime::ReplayReport>> reports;
-  for (const auto& [name, scenario] : cases) {
-    const std::string source = a.file.empty() ? "case " + name : "file " + name;
-    const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
+  const auto source_of = [&](const std::string& name) { return a.file.empty() ? "case " + name : "file " + name; };
+  const auto identity_options = [&](const std::string& name, const scenarios::Scenario& scenario) {
     runtime::ReplayOptions o;
     o.parameters = params;
-    o.source = source;
+    o.source = source_of(name);
     o.identity = identity_of(a, scenario);
+    return o;
+  };
+  // --resume of several cases (--case all after a kill): per case, its unfinished run is resumed, a
+  // finished one is shown from its stored indicators, one never begun begins; decided before anything
+  // is changed.
+  std::vector<ResumePlan> plans(cases.size(), a.resume ? ResumePlan::Resume : ResumePlan::Begin);
+  std::vector<std::optional<runtime::ReplayReport>> stored(cases.size());
+  if (a.resume && cases.size() > 1) {
+    std::vector<std::pair<std::string, std::string>> sources;  // (source, identity)
+    for (const auto& [name, scenario] : cases)
+      sources.emplace_back(source_of(name), runtime::replay_identity(identity_options(name, scenario)));
+    plans = plan_resume(a.db, sources, stored);
+  }
+
+  KillSwitch kill;
+  std::vector<std::pair<std::string, runtime::ReplayReport>> reports;
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const auto& [name, scenario] = cases[k];
+    const std::string source = source_of(name);
+    if (plans[k] == ResumePlan::Stored) {
+      std::cerr << source << ": finished before (in " << a.db << "); its stored indicators are shown\n";
+      reports.emplace_back(name, *stored[k]);
+      continue;
+    }
+    const double t0 = scenario.time_s.empty() ? 0.0 : scenario.time_s.front();
+    runtime::ReplayOptions o = identity_options(name, scenario);
     o.db = a.db;
-    o.resume = a.resume;
+    o.resume = plans[k] == ResumePlan::Resume;
     o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
     o.machine = machine;
     o.software_version = std::string("alc ") + ALC_VERSION;
@@ -302,9 +369,12 @@ void run_replay(const ReplayArgs& a) {
     if (replay->nc() && replay->nc_summary())
       print_nc_summary(source, nc_dir_of(a, name, cases.size() > 1), dialect, *replay->nc(), *replay->nc_summary());
     if (!replay->finished()) {
-      std::cerr << source << ": stopped at " << a.stop_at_h << " h of scenario time (run " << *replay->run_id()
-                << " in " << a.db << "); continue with --resume\n";
-      continue;
+      // Where it really stopped (the next sample to replay): a resume with a --stop-at already passed
+      // stops where it resumed.
+      const double stopped_h = (scenario.time_s[replay->position()] - t0) / 3600.0;
+      std::cerr << source << ": stopped at " << common::shortest_text(stopped_h)
+                << " h of scenario time (run " << *replay->run_id() << " in " << a.db
+                << "); the indicators below are of that part; continue with --resume\n";
     }
     reports.emplace_back(name, replay->report());
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());

@@ -69,13 +69,17 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
 
 Replay::~Replay() = default;
 
+std::string replay_identity(const ReplayOptions& options) {
+  const auto schedule = options.schedule ? options.schedule : options.parameters.schedule_policy();
+  nlohmann::json identity = {{"parameters", canonical_parameters(options.parameters, schedule->name())}};
+  for (const auto& [k, v] : options.identity.items()) identity[k] = v;
+  return identity.dump();
+}
+
 storage::RunRecord Replay::run_record() const {
   storage::RunRecord r;
   r.source = options_.source;
-  nlohmann::json identity = {{"parameters", canonical_parameters(options_.parameters,
-                                                                 controller_.schedule().name())}};
-  for (const auto& [k, v] : options_.identity.items()) identity[k] = v;
-  r.config_json = identity.dump();
+  r.config_json = replay_identity(options_);
   r.software_version = options_.software_version;
   r.input_names = scenario_.input_names;
   r.output_names = scenario_.output_names;

@@ -62,8 +62,14 @@ TEST_CASE("alc replay --stop-at then --resume gives the indicators of an uninter
   REQUIRE(whole.exit_code == 0);
   const Run stopped = alc("replay --case B --json --db \"" + db.string() + "\" --stop-at 40");
   REQUIRE(stopped.exit_code == 0);
-  CHECK(stopped.out.empty());
-  CHECK_THAT(stopped.err, Catch::Matchers::Contains("stopped at 40 h"));
+  CHECK_THAT(stopped.err, Catch::Matchers::Contains("stopped at 40 h of scenario time") &&
+                              Catch::Matchers::Contains("the indicators below are of that part"));
+  // The indicators of the part replayed, as stored with the stop (before: nothing printed, exit 0).
+  const auto part = indicators_of(stopped.out);
+  CHECK(part["M"].get<int>() < indicators_of(whole.out)["M"].get<int>());
+  const Run stored = alc("db export \"" + db.string() + "\" --table run_indicators --out -");
+  REQUIRE(stored.exit_code == 0);
+  CHECK_THAT(stored.out, Catch::Matchers::Contains("\"\"M\"\":" + std::to_string(part["M"].get<int>()) + ","));
   const Run resumed = alc("replay --case B --json --db \"" + db.string() + "\" --resume");
   INFO(resumed.err);
   REQUIRE(resumed.exit_code == 0);
@@ -91,6 +97,37 @@ TEST_CASE("alc replay killed with SIGKILL mid-run leaves a sound history that --
   REQUIRE(resumed.exit_code == 0);
   CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
   CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
+}
+
+TEST_CASE("alc replay --case all --resume: after a kill, finished cases are shown, the unfinished one resumed, the rest begun") {
+  const fs::path db = work_dir() / "all_killed.sqlite";
+  fs::remove(db);
+  const Run whole = alc("replay --case all --json");
+  REQUIRE(whole.exit_code == 0);
+  // Killed in case A (the main job's command with --db): B, C and D never began.
+  const Run killed = alc("replay --case all --json --db \"" + db.string() + "\" --kill-at 100");
+  CHECK(killed.signal == 9);
+  const Run resumed = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
+  INFO(resumed.err);
+  REQUIRE(resumed.exit_code == 0);  // before: exit 2 after finishing A, "no unfinished run of 'case B'"
+  CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
+  const Run again = alc("replay --case all --db \"" + db.string() + "\" --resume");
+  CHECK(again.exit_code == 2);
+  CHECK_THAT(again.err, Catch::Matchers::Contains("nothing to resume: every case's run is finished"));
+  // Every case stopped, then A finished alone: A is shown from its stored indicators, B-D resumed.
+  fs::remove(db);
+  REQUIRE(alc("replay --case all --db \"" + db.string() + "\" --stop-at 50").exit_code == 0);
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --resume").exit_code == 0);
+  const Run mixed = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
+  INFO(mixed.err);
+  REQUIRE(mixed.exit_code == 0);
+  CHECK_THAT(mixed.err, Catch::Matchers::Contains("case A: finished before"));
+  CHECK(indicators_of(mixed.out) == indicators_of(whole.out));
+  CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
+  // A finished run of other parameters is not taken for this one: refused before anything changes.
+  const Run other = alc("replay --case all --db \"" + db.string() + "\" --resume --interval 3");
+  CHECK(other.exit_code == 2);
+  CHECK_THAT(other.err, Catch::Matchers::Contains("finished run 1 of 'case A' was made with other parameters"));
 }
 
 TEST_CASE("alc replay --resume refuses other parameters than the stored run's") {

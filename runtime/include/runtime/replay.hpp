@@ -44,6 +44,10 @@ struct ReplayOptions {
   std::string software_version;            // stored with a new run
 };
 
+// The identity a replay with `options` stores (runs.config_json) and a resume must match: the
+// canonical parameters under the schedule's name, and options.identity.
+std::string replay_identity(const ReplayOptions& options);
+
 class Replay {
  public:
   // Opens the history and begins or resumes the run when `options.db` is set. Throws
@@ -63,6 +67,7 @@ class Replay {
   void advance(double stop_time_s);
 
   bool finished() const { return source_.finished(); }
+  std::size_t position() const { return source_.position(); }  // the next row of the scenario to replay
   ReplayReport report() const;
   scenarios::Scenario residuals() const { return evaluation_.residuals(); }
   const Controller& controller() const { return controller_; }
