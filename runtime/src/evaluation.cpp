@@ -56,9 +56,11 @@ Evaluation::Evaluation(const scenarios::Scenario& scenario, std::vector<Baseline
     : scenario_(scenario), baseline_kinds_(std::move(baselines)) {}
 
 void Evaluation::on_cycle(const Cycle& cycle) {
-  if (cycle.kind() != Cycle::Kind::Sample) return;
-  predicted_ = cycle.out().prediction;
+  if (cycle.kind() == Cycle::Kind::Sample) predicted_ = cycle.out().prediction;
   const ControllerState& cs = cycle.controller().state();
+  // Fitted in the cycle that ends CP, whatever its kind: a CP prolonged by a rejected fit ends on a
+  // probe, and the row of that probe is evaluated (on_sample_done) with the baseline, as a resumed
+  // run's rebuild evaluates it.
   if (!baseline_fitted_ && std::isfinite(cs.cp_end_s)) {
     // Static baseline: MLR on the CP measurements, fitted once and never updated.
     baseline_ = fit_static_regression(cs.history, scenario_.output_names, cs.probes).model;

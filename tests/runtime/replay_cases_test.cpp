@@ -129,6 +129,28 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
   }
 }
 
+TEST_CASE("load case A with CP prolonged (learning since 10 h): the baseline of a resumed run is the uninterrupted one's") {
+  // CP cannot end before probes from 10 h on allow a fit: it ends on a probe cycle, not at 6.5 h. The
+  // baseline is fitted in that cycle; before, the uninterrupted run evaluated that probe's row with a
+  // baseline of zero, and a resumed run (which rebuilds the rows with the fitted baseline) differed.
+  const auto simulated = simulate_case("A");
+  AlcParameters p;
+  p.learning_since_s = 10.0 * 3600.0;
+  Replay uninterrupted(simulated.scenario, in_memory(p));
+  uninterrupted.run();
+  const ReplayReport whole = uninterrupted.report();
+  REQUIRE(whole.cp_end_s > 10.0 * 3600.0);
+  const auto second = stopped_and_resumed(simulated.scenario, p, "cases-A-since", 25.0);
+  const ReplayReport r = second->report();
+  REQUIRE(r.baseline.size() == whole.baseline.size());
+  for (std::size_t k = 0; k < r.baseline.size(); ++k) {
+    INFO("output " << k);
+    CHECK(r.baseline[k].P99 == whole.baseline[k].P99);
+    CHECK(r.baseline[k].PV == whole.baseline[k].PV);
+    CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
+  }
+}
+
 TEST_CASE("load case A with the adaptive schedule: a run stopped and resumed from its history continues bit for bit") {
   const auto simulated = simulate_case("A");
   AlcParameters p;
