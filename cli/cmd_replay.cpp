@@ -268,6 +268,8 @@ std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std
 
 void run_replay(const ReplayArgs& a) {
   if (a.file.empty() == a.case_name.empty()) throw UsageError("give exactly one of FILE.csv or --case");
+  // It would be ignored, yet stored in the run's identity (a later --resume without it refused).
+  if (!a.file.empty() && a.seed_given) throw UsageError("--seed applies to --case (a simulated load case), not to a FILE");
   const AlcParameters params = parameters_from(a);
   std::vector<BaselineKind> baselines;
   if (!a.baselines.empty()) {
@@ -288,12 +290,22 @@ void run_replay(const ReplayArgs& a) {
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   refuse_output_over_database("--residuals", a.residuals, a.db, "the history database");
-  // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes.
-  for (const auto& [name, scenario] : cases)
-    if (!scenario.time_s.empty() && params.learning_since_s > scenario.time_s.back())
-      throw UsageError("--since " + a.since + " h is after the end of " + (a.file.empty() ? "case " : "") + name +
-                       " (its last sample is at " + common::shortest_text(scenario.time_s.back() / 3600.0) +
+  // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes. And
+  // one before it begins: --since counts from scenario time 0 (a file stamped in Unix time starts at
+  // ~470,000 h), so --since 26 meant as "26 h in" would silently change nothing.
+  for (const auto& [name, scenario] : cases) {
+    if (scenario.time_s.empty()) continue;
+    const std::string what = (a.file.empty() ? "case " : "") + name;
+    if (params.learning_since_s > scenario.time_s.back())
+      throw UsageError("--since " + a.since + " h is after the end of " + what + " (its last sample is at " +
+                       common::shortest_text(scenario.time_s.back() / 3600.0) +
                        " h of scenario time): the controller would never learn from a probe");
+    if (params.learning_since_s > 0.0 && params.learning_since_s < scenario.time_s.front())
+      throw UsageError("--since " + a.since + " h is before the first sample of " + what + " (at " +
+                       common::shortest_text(scenario.time_s.front() / 3600.0) +
+                       " h of scenario time) and would change nothing: --since counts from scenario time 0, "
+                       "not from the first sample");
+  }
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;

@@ -166,6 +166,13 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line_no == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // UTF-8 BOM
+    // A file whose lines end in CR alone (classic Mac OS, some old exports) reads as one long line:
+    // say so, instead of what its cells would look like as one header. (A CR inside a later line is a
+    // bad cell, named as such.)
+    if (const auto cr = line.find('\r'); line_no == 1 && cr != std::string::npos)
+      throw ScenarioCsvError(source, line_no, 0, "", "",
+                             "a carriage return inside the line (byte " + std::to_string(cr + 1) +
+                                 "): the lines end in CR alone (classic Mac OS); convert them to LF or CRLF");
     return true;
   };
 
@@ -189,6 +196,9 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
     header[c] = unquote(header[c]);
     const std::string& name = header[c];
     if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", header_text, "empty column name in header");
+    // A quote in a name ("T_""a""" is not unescaped): no output of ours could write it back.
+    if (name.find('"') != std::string::npos)
+      throw ScenarioCsvError(source, header_line, c + 1, "", printable(name), "column name contains a quote");
     // Names go into JSON (reports, the history's run record): refuse what is not UTF-8 here.
     if (const std::size_t at = invalid_utf8_at(name); at != std::string::npos)
       throw ScenarioCsvError(source, header_line, c + 1, "", printable(name),

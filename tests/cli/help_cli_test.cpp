@@ -102,6 +102,18 @@ TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message o
   check_usage_error("replay --case C --cp", "--cp");
   check_usage_error("replay --case C --since inf", "--since: 'inf' is not a number >= 0");
   check_usage_error("replay --case C --since -2", "--since");
+  // A recording stamped in Unix time: --since counts from time 0, so "26 h in" changes nothing.
+  const std::string epoch = (std::filesystem::temp_directory_path() / "alc_help_cli_epoch.csv").string();
+  {
+    std::ofstream f(epoch);
+    f << "time_s,T,E_X0C\n";
+    for (int k = 0; k < 200; ++k) f << 1700000000 + 300 * k << ",20," << (k % 3 == 0 ? "1" : "") << "\n";
+  }
+  check_usage_error("replay " + epoch + " --since 26",
+                    "--since 26 h is before the first sample of " + epoch + " (at 472222.22222222225 h of scenario time)");
+  // --seed belongs to the simulated cases; with a file it was ignored, yet stored in the identity.
+  check_usage_error("replay " + epoch + " --seed 7", "--seed applies to --case (a simulated load case), not to a FILE");
+  std::filesystem::remove(epoch);
   // After the end of the recording: nothing would be learned (before: a table of dashes, exit 0).
   check_usage_error("replay --case A --since 200",
                     "--since 200 h is after the end of case A (its last sample is at 192 h of scenario time)");

@@ -111,6 +111,13 @@ TEST_CASE("scenario CSV: CRLF line ends, a BOM and trailing blank lines are acce
   CHECK(s.inputs(1, 0) == 1.5);
 }
 
+TEST_CASE("scenario CSV: lines ending in CR alone are named as such, not read as one long header") {
+  // Before: "case.csv:1:4: duplicate column name in header, first at column 2 (column '0')".
+  CHECK(message_of("time_s,T,E_X0C\r0,1,2\r60,1,2\r") ==
+        "case.csv:1: a carriage return inside the line (byte 15): the lines end in CR alone (classic Mac OS); "
+        "convert them to LF or CRLF");
+}
+
 TEST_CASE("scenario CSV: a 16-sensor, 5-output recording at 15 s sampling loads") {
   std::mt19937_64 rng(7);
   std::normal_distribution<double> noise(0.0, 1.0);
@@ -244,6 +251,9 @@ TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
         "case.csv:1:4: duplicate column name in header, first at column 1 (column 'time_s'): "
         "value 'time_s,T,E_X0C,time_s'");
   CHECK(message_of("time_s,T,E_X0C,\n0,1,2,3\n") == "case.csv:1:4: empty column name in header: value 'time_s,T,E_X0C,'");
+  // A quote inside a name (a spreadsheet's "T_""a"""): kept before, so that --residuals could not write it.
+  CHECK(message_of("time_s,\"T_\"\"a\"\"\",E_X0C\n0,1,2\n") ==
+        "case.csv:1:2: column name contains a quote: value 'T_\"\"a\"\"'");
 }
 
 TEST_CASE("scenario CSV: a column name that is not UTF-8 is rejected at read time (issue 13 item 4)") {
