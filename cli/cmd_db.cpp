@@ -141,9 +141,9 @@ void add_db_command(CLI::App& app) {
   auto* exp = db->add_subcommand("export", "One table as CSV (header line, RFC 4180 quoting, vectors spread "
                                            "into one column per channel)");
   exp->add_option("FILE", *file, "History database")->required();
-  exp->add_option("--table", *table, "Table to export: runs, run_channels, input_samples, probe_measurements, "
-                  "predictions, model_parameter_sets, phase_changes, probe_interval_changes, nc_commands, "
-                  "controller_snapshots")->required();
+  std::string tables;
+  for (const auto& name : storage::exportable_tables()) tables += (tables.empty() ? "" : ", ") + name;
+  exp->add_option("--table", *table, "Table to export: " + tables)->required();
   exp->add_option("--out", *out, "CSV file to write ('-' for stdout)")->required();
   exp->callback([file, table, out] { run_export(*file, *table, *out); });
 

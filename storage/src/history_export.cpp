@@ -80,6 +80,17 @@ const std::vector<TableSpec>& specs() {
       {"run_indicators", "run_id",  // schema version 5; an older file exports the header only
        {{"run_id", "run_id", Cell::Int, nullptr}, {"stored_unix_s", "stored_unix_s", Cell::Real, nullptr},
         {"report_json", "report_json", Cell::Text, nullptr}}},
+      {"studies", "study_id",  // a study's file (schema version 4); a history exports the header only
+       {{"study_id", "study_id", Cell::Int, nullptr}, {"grid_json", "grid_json", Cell::Text, nullptr},
+        {"cases_json", "cases_json", Cell::Text, nullptr}, {"software_version", "software_version", Cell::Text, nullptr},
+        {"shard", "shard", Cell::Text, nullptr}, {"set_count", "set_count", Cell::Int, nullptr},
+        {"created_unix_s", "created_unix_s", Cell::Real, nullptr}}},
+      {"study_rows", "study_id, set_index, case_index",
+       {{"study_id", "study_id", Cell::Int, nullptr}, {"set_index", "set_index", Cell::Int, nullptr},
+        {"case_index", "case_index", Cell::Int, nullptr}, {"status", "status", Cell::Text, nullptr},
+        {"error", "error", Cell::Text, nullptr}, {"pd", "pd", Cell::Real, nullptr},
+        {"p99_linear", "p99_linear", Cell::Real, nullptr}, {"p99_angular", "p99_angular", Cell::Real, nullptr},
+        {"report_json", "report_json", Cell::Text, nullptr}}},
   };
   return all;
 }
@@ -166,7 +177,10 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
   out << "\n";
   if (!db->table_exists(spec->table)) return;  // an older schema: header only
 
-  std::string sql = "SELECT run_id";
+  // The run of each row (for its channels); a study's tables have no run.
+  const bool per_run = std::any_of(spec->columns.begin(), spec->columns.end(),
+                                   [](const Column& c) { return std::string_view(c.sql) == "run_id"; });
+  std::string sql = per_run ? "SELECT run_id" : "SELECT 0";
   for (const Column& c : spec->columns) sql += std::string(", ") + (version < c.since_version ? "NULL" : c.sql);
   sql += std::string(" FROM ") + spec->table + " ORDER BY " + spec->order;
   Statement st(*db, sql);

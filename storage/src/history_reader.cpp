@@ -170,7 +170,7 @@ namespace {
 // Every table of the current schema; those of later versions are skipped when absent.
 constexpr const char* kTables[] = {"runs", "run_channels", "input_samples", "probe_measurements", "predictions",
                                    "model_parameter_sets", "phase_changes", "probe_interval_changes",
-                                   "nc_commands", "controller_snapshots", "run_indicators"};
+                                   "nc_commands", "controller_snapshots", "run_indicators", "studies", "study_rows"};
 constexpr const char* kTimedTables[] = {"input_samples", "probe_measurements", "predictions", "model_parameter_sets",
                                         "phase_changes", "probe_interval_changes", "nc_commands",
                                         "controller_snapshots"};

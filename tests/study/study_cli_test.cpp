@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+
+#include <algorithm>
 #include <fstream>
 #include <chrono>
 #include <nlohmann/json.hpp>
@@ -87,6 +89,13 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
   CHECK(sql(db, "SELECT count(*) FROM study_rows") == "20");
   REQUIRE(run_alc("study report " + db.string() + " --csv " + csv2.string(), "study_cli").exit_code == 0);
   CHECK(slurp(csv2) == text);
+  // The study's tables are tables of the file for db info and db export too (before: not listed, refused).
+  const auto info = run_alc("db info " + db.string(), "study_cli");
+  CHECK_THAT(info.out, Catch::Matchers::Contains("study_rows") && Catch::Matchers::Contains("studies"));
+  const auto rows_csv = run_alc("db export " + db.string() + " --table study_rows --out -", "study_cli");
+  REQUIRE(rows_csv.exit_code == 0);
+  CHECK(rows_csv.out.rfind("study_id,set_index,case_index,status,error,pd,p99_linear,p99_angular,report_json\n", 0) == 0);
+  CHECK(std::count(rows_csv.out.begin(), rows_csv.out.end(), '\n') >= 21);  // header + 20 rows (JSON may hold more)
 
   SECTION("--resume reuses the rows it has and computes the rest: the same rows") {
     const fs::path partial = dir() / "partial.sqlite", csv3 = dir() / "resumed.csv";
