@@ -32,6 +32,15 @@ void report_rows(Database& db, std::string_view sql, const std::string& label, C
 
 }  // namespace
 
+std::string report_json_problem(const std::string& text) {
+  const auto j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded()) return "does not parse as JSON";
+  if (!j.is_object()) return "is not a JSON object";
+  if (!j.contains("outputs") || !j["outputs"].is_object()) return "has no \"outputs\" object";
+  if (!j.contains("M") || !j["M"].is_number_integer()) return "has no whole number \"M\"";
+  return {};
+}
+
 CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck& snapshot_check) {
   CheckReport report;
   int version = 0;
@@ -123,12 +132,27 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   // The indicators a run ended with (version 5) are the JSON object alc replay --json printed.
   if (version >= 5) {
     Statement st(*db, "SELECT run_id, report_json FROM run_indicators ORDER BY run_id");
-    while (st.step()) {
-      const auto j = nlohmann::json::parse(st.column_text(1), nullptr, false);
-      if (!j.is_object() || !j.contains("outputs"))
-        report.problems.push_back("run_indicators: run " + st.column_text(0) +
-                                  ": report_json is not a JSON object with \"outputs\"");
-    }
+    while (st.step())
+      if (const std::string why = report_json_problem(st.column_text(1)); !why.empty())
+        report.problems.push_back("run_indicators: run " + st.column_text(0) + ": report_json " + why);
+  }
+  // A study's file (version 4): its header's JSON and each finished row's indicators.
+  if (version >= 4) {
+    Statement studies(*db, "SELECT study_id, grid_json, cases_json FROM studies ORDER BY study_id");
+    while (studies.step())
+      for (const int col : {1, 2})
+        if (!nlohmann::json::accept(studies.column_text(col)))
+          report.problems.push_back("studies: study " + studies.column_text(0) + ": " +
+                                    (col == 1 ? "grid_json" : "cases_json") + " does not parse");
+    Statement rows(*db, "SELECT set_index, case_index, report_json FROM study_rows WHERE status = 'ok' "
+                        "ORDER BY study_id, set_index, case_index");
+    int shown = 0;
+    while (rows.step() && shown < kMaxReported)
+      if (const std::string why = report_json_problem(rows.column_text(2)); !why.empty()) {
+        report.problems.push_back("study_rows: set " + rows.column_text(0) + ", case " + rows.column_text(1) +
+                                  ": report_json " + why);
+        ++shown;
+      }
   }
   {
     Statement st(*db, std::string("SELECT ") + detail::kSnapshotColumns + " FROM controller_snapshots");

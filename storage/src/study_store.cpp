@@ -4,7 +4,9 @@
 #include <sqlite3.h>
 
 #include "sqlite_db.hpp"
+#include "storage/history_tools.hpp"
 #include "storage/schema.hpp"
+#include <nlohmann/json.hpp>
 
 namespace alc::storage {
 
@@ -29,6 +31,10 @@ std::optional<StudyHeader> read_header(detail::Database& db) {
   h.software_version = st.column_text(2);
   h.shard = st.column_text(3);
   h.set_count = st.column_int(4);
+  for (const auto& [field, text] : {std::pair<const char*, const std::string*>{"grid_json", &h.grid_json},
+                                    {"cases_json", &h.cases_json}})
+    if (!nlohmann::json::accept(*text))
+      throw StorageError(StorageErrorKind::Corrupt, db.file(), std::string("studies: ") + field + " does not parse as JSON");
   return h;
 }
 
@@ -92,6 +98,12 @@ std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
     r.p99_linear = optional_double(st, 5);
     r.p99_angular = optional_double(st, 6);
     r.report_json = st.is_null(7) ? std::string() : st.column_text(7);
+    // The analysis and the CSV read every finished row's document: a damaged one is named here.
+    if (r.ok)
+      if (const std::string why = report_json_problem(r.report_json); !why.empty())
+        throw StorageError(StorageErrorKind::Corrupt, file,
+                           "study_rows: set " + std::to_string(r.set_index) + ", case " + std::to_string(r.case_index) +
+                               ": report_json " + why + "; 'alc db check' lists every such row");
     rows.push_back(std::move(r));
   }
   return rows;

@@ -2,6 +2,7 @@
 // lock, and the empty file of a study killed before its first commit holds nothing.
 #include <catch2/catch.hpp>
 
+#include "storage/history_tools.hpp"
 #include "storage/storage_error.hpp"
 #include "storage/study_store.hpp"
 #include "storage_test_support.hpp"
@@ -58,4 +59,33 @@ TEST_CASE("study store: the empty file of a study killed before its first commit
   CHECK_FALSE(StudyStore::holds_nothing(other));
   CHECK_THROWS_AS(StudyStore::header_of(other), StorageError);
   CHECK_FALSE(StudyStore::holds_nothing(dir / "missing.sqlite"));
+}
+
+TEST_CASE("study store: a damaged row or header is named with its place, and db check lists it") {
+  const test::ScratchDir dir;
+  const auto file = dir / "study.sqlite";
+  {
+    StudyStore store(file, header(R"({"cp":[6.5,12]})"), StudyStore::Existing::Refuse);
+    StudyRowRecord ok;
+    ok.set_index = 0;
+    ok.case_index = 0;
+    ok.ok = true;
+    ok.report_json = R"({"outputs":{},"M":3})";
+    StudyRowRecord damaged = ok;
+    damaged.set_index = 1;
+    damaged.report_json = R"({"outputs":5})";  // what an editor left: before, "key 'M' not found" from nlohmann
+    store.add({ok, damaged});
+  }
+  CHECK_THROWS_WITH(StudyStore::rows_of(file), Catch::Contains("study_rows: set 1, case 0: report_json has no \"outputs\" object") &&
+                                                   Catch::Contains(file.string()));
+  CheckReport report = check_history(file);
+  REQUIRE(report.problems.size() == 1);
+  CHECK(report.problems[0] == "study_rows: set 1, case 0: report_json has no \"outputs\" object");
+  test::RawDb(file).exec("UPDATE studies SET grid_json = '{'");
+  CHECK_THROWS_WITH(StudyStore::header_of(file), Catch::Contains("studies: grid_json does not parse as JSON"));
+  report = check_history(file);
+  CHECK(report.problems.size() == 2);
+  CHECK(report_json_problem(R"({"outputs":{},"M":3})").empty());
+  CHECK(report_json_problem("garbage") == "does not parse as JSON");
+  CHECK(report_json_problem(R"({"outputs":{}})") == "has no whole number \"M\"");
 }
