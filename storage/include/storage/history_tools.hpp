@@ -25,8 +25,8 @@ struct CheckReport {
 CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck& snapshot_check = {});
 
 // Why `text` is not an indicators document as `alc replay --json` prints it (a JSON object whose
-// "outputs" is an object and whose "M" is a whole number), or "" when it is one: what
-// run_indicators.report_json and study_rows.report_json hold, and what their readers rely on.
+// "outputs" is an object and whose "M" is a whole number), or "" when it is one: what a finished
+// study_rows.report_json holds, and what the study's analysis and CSV rely on.
 std::string report_json_problem(const std::string& text);
 
 // Tables `alc db export` accepts (the fixed list; nothing else reaches SQL).
