@@ -111,7 +111,7 @@ std::size_t drawn_points(const Chart& chart, const Series& s) {
 
 std::vector<double> nice_ticks(double lo, double hi, int target, bool hours) {
   std::vector<double> ticks;
-  if (!(hi > lo) || !std::isfinite(lo) || !std::isfinite(hi) || target < 1) return ticks;
+  if (!(hi > lo) || !std::isfinite(hi - lo) || target < 1) return ticks;
   const double raw = (hi - lo) / target;
   double step;
   if (hours && raw >= 4.0) {
@@ -149,11 +149,14 @@ std::string render_svg(const Chart& c) {
       }
   if (!(ylo <= yhi)) ylo = -1.0, yhi = 1.0;
   if (yhi - ylo < 1e-12) ylo -= 1.0, yhi += 1.0;
-  const double pad = 0.05 * (yhi - ylo);
-  ylo -= pad;
-  yhi += pad;
+  // In halves: values near ±1.8e308 (an input with its plausibility limit off) would make the span
+  // yhi - ylo infinite, and every point NaN in the drawing.
+  const double big = std::numeric_limits<double>::max();
+  const double pad = 0.1 * (yhi / 2 - ylo / 2);
+  ylo = std::max(-big, ylo - pad);
+  yhi = std::min(big, yhi + pad);
   auto X = [&](double x) { return pl + (x - x0) / (x1 - x0) * (pr - pl); };
-  auto Y = [&](double y) { return pb - (y - ylo) / (yhi - ylo) * (pb - pt); };
+  auto Y = [&](double y) { return pb - (y / 2 - ylo / 2) / (yhi / 2 - ylo / 2) * (pb - pt); };
   const std::string clip = c.id + "-clip";
 
   std::string o;

@@ -76,6 +76,20 @@ TEST_CASE("render_svg: one path per series with the points it draws - axis label
   CHECK(svg.find("<script") == std::string::npos);
 }
 
+TEST_CASE("render_svg: values near the largest double draw finite coordinates, never nan", "[report][svg]") {
+  // An input with its plausibility limit off (--plausible-other inf) at 1.8e308 and 1e300: the span
+  // of the y axis overflowed, and every point was written as -nan (found by review).
+  Chart c;
+  c.id = "big";
+  const double top = std::numeric_limits<double>::max();
+  c.series.push_back({"huge", "#111", Series::Style::Line, {0, 1, 2, 3}, {top, 1e300, -top, 0}});
+  const std::string svg = render_svg(c);
+  CHECK(svg.find("nan") == std::string::npos);
+  CHECK(svg.find("inf") == std::string::npos);
+  CHECK(svg.find("data-points=\"4\"") != std::string::npos);
+  CHECK(nice_ticks(-top, top, 5).empty());  // no tick labels for a span beyond a double
+}
+
 TEST_CASE("nice ticks: round steps - hours in multiples of 6 - 12 - 24 h", "[report][svg]") {
   CHECK(nice_ticks(0, 10, 5) == std::vector<double>{0, 2.5, 5, 7.5, 10});
   CHECK(nice_ticks(0, 100, 5) == std::vector<double>{0, 25, 50, 75, 100});
