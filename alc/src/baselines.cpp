@@ -30,7 +30,9 @@ struct Standardisation {
     for (Eigen::Index c = 0; c < X.cols(); ++c) {
       s.mean(c) = X.col(c).mean();
       const double sd = std::sqrt((X.col(c).array() - s.mean(c)).square().mean());
-      if (sd > 1e-12 * std::max(1.0, std::abs(s.mean(c)))) {
+      // Relative to the column's own size, so that an input's unit does not decide (1e-20 x T is no
+      // more constant than T); a column held at one value has sd 0 or rounding noise of its mean.
+      if (sd > 0.0 && sd > 1e-12 * std::abs(s.mean(c))) {
         s.sd(c) = sd;
         s.cols.push_back(c);
       }
@@ -100,6 +102,17 @@ Eigen::VectorXd lasso_from(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, d
   return a;
 }
 
+// The least-squares solution of A x = rhs by column-pivoting QR on A with its columns scaled to unit
+// norm: which columns count as dependent does not change when an input is given in other units
+// (an input 1e20 times larger made every other column look dependent).
+Eigen::VectorXd solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& rhs) {
+  Eigen::VectorXd scale = A.colwise().norm().transpose();
+  for (Eigen::Index k = 0; k < scale.size(); ++k)
+    if (!(scale(k) > 0.0) || !std::isfinite(scale(k))) scale(k) = 1.0;
+  const Eigen::MatrixXd As = A * scale.cwiseInverse().asDiagonal();
+  return As.colPivHouseholderQr().solve(rhs).cwiseQuotient(scale);
+}
+
 // OLS with intercept on the columns `cols` of X; coefficients (per column of X, 0 elsewhere) and
 // p-values (NaN for columns not estimated).
 LinearBaseline ols_on(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const std::vector<Eigen::Index>& cols) {
@@ -118,8 +131,12 @@ LinearBaseline ols_on(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const 
     Xc.col(c) = X.col(cols[j]).array() - mean(c);
   }
   const Eigen::VectorXd yc = y.array() - f.intercept;
-  // The linearly independent columns (pivoted QR), then a plain QR of those.
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> piv(Xc);
+  // The linearly independent columns (pivoted QR of the columns scaled to unit norm, so that the
+  // choice does not depend on the inputs' units), then a plain QR of those.
+  Eigen::MatrixXd Xs = Xc;
+  for (Eigen::Index c = 0; c < Xs.cols(); ++c)
+    if (const double norm = Xs.col(c).norm(); norm > 0.0 && std::isfinite(norm)) Xs.col(c) /= norm;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> piv(Xs);
   std::vector<Eigen::Index> independent;
   for (Eigen::Index k = 0; k < piv.rank(); ++k) independent.push_back(piv.colsPermutation().indices()(k));
   std::sort(independent.begin(), independent.end());
@@ -443,7 +460,7 @@ GreyBaseline fit_grey(const std::vector<double>& measured_at, const std::vector<
     for (std::size_t c = 0; c < cols.size(); ++c) A(r, static_cast<Eigen::Index>(c) + 1) = U(static_cast<Eigen::Index>(j), cols[c]);
     rhs(r) = dy;
   }
-  Eigen::VectorXd theta = A.colPivHouseholderQr().solve(rhs);
+  Eigen::VectorXd theta = solve_scaled(A, rhs);
   if (!theta.allFinite()) return g;
   // Stability: a time constant 1/a longer than the span of the measurements (or growth, a <= 0) is
   // not what the data can show, and the whitened equation would diverge after it. The problem is
@@ -453,7 +470,7 @@ GreyBaseline fit_grey(const std::vector<double>& measured_at, const std::vector<
   if (g.a_constrained) {
     theta(0) = a_min;
     if (A.cols() > 1) {
-      const Eigen::VectorXd b = A.rightCols(A.cols() - 1).colPivHouseholderQr().solve(rhs - a_min * A.col(0));
+      const Eigen::VectorXd b = solve_scaled(A.rightCols(A.cols() - 1), rhs - a_min * A.col(0));
       if (!b.allFinite()) return g;
       theta.tail(b.size()) = b;
     }

@@ -39,7 +39,7 @@ std::vector<Eigen::Index> varying_inputs(const InputHistory& history, const std:
       lo = std::min(lo, history.inputs(s, i));
       hi = std::max(hi, history.inputs(s, i));
     }
-    if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi))) varying.push_back(i);
+    if (hi - lo > 0.0 && hi - lo > 1e-9 * std::max(std::abs(hi), std::abs(lo))) varying.push_back(i);  // any unit
   }
   return varying;
 }

@@ -86,6 +86,25 @@ TEST_CASE("baselines: OLS with a constant and a collinear input stays finite") {
   CHECK(f.selected[0] != f.selected[3]);  // one of the two collinear inputs, not both
 }
 
+TEST_CASE("baselines: OLS does not depend on the units of an input") {
+  // An input given 1e20 times larger (or smaller) gets its coefficient scaled by 1e-20 (or 1e20);
+  // the selection, the p-values and the other coefficients stay. Before, the pivoted QR judged rank
+  // on the unscaled columns: the large one made the others look dependent, and they were dropped.
+  const Eigen::MatrixXd X = data_x();
+  const LinearBaseline base = fit_ols(X, data_y(X));
+  for (const double unit : {1e20, 1e-20}) {
+    INFO("input 0 times " << unit);
+    Eigen::MatrixXd Xs = X;
+    Xs.col(0) *= unit;
+    const LinearBaseline f = fit_ols(Xs, data_y(X));
+    CHECK(f.selected == base.selected);
+    CHECK_THAT(f.coefficients(0) * unit, WithinRel(base.coefficients(0), 1e-9));
+    CHECK_THAT(f.coefficients(1), WithinRel(base.coefficients(1), 1e-9));
+    CHECK_THAT(f.p_values(1), WithinRel(base.p_values(1), 1e-6));
+    CHECK_THAT(f.intercept, WithinAbs(base.intercept, 1e-9));
+  }
+}
+
 TEST_CASE("baselines: epsilon-SVR with an RBF kernel equals scikit-learn's SVR") {
   const Eigen::MatrixXd X = data_x();
   const SvrBaseline s = SvrBaseline::fit(X, data_y(X), {10.0, 0.5, 0.05, 1e-8});
