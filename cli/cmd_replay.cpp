@@ -300,6 +300,11 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError("--since " + a.since + " h is after the end of " + what + " (its last sample is at " +
                        common::shortest_text(scenario.time_s.back() / 3600.0) +
                        " h of scenario time): the controller would never learn from a probe");
+    // A CP longer than the recording: no model, nothing evaluated, a table of dashes.
+    if (scenario.time_s.front() + params.cp_duration_s > scenario.time_s.back())
+      throw UsageError("--cp " + a.cp + " h is longer than " + what +
+                       " (" + common::shortest_text((scenario.time_s.back() - scenario.time_s.front()) / 3600.0) +
+                       " h): CP would not end, no model would be made and nothing evaluated");
     if (params.learning_since_s > 0.0 && params.learning_since_s < scenario.time_s.front())
       throw UsageError("--since " + a.since + " h is before the first sample of " + what + " (at " +
                        common::shortest_text(scenario.time_s.front() / 3600.0) +

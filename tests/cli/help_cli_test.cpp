@@ -111,6 +111,8 @@ TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message o
   }
   check_usage_error("replay " + epoch + " --since 26",
                     "--since 26 h is before the first sample of " + epoch + " (at 472222.22222222225 h of scenario time)");
+  // A CP longer than the recording: no model, a table of dashes (before: exit 0).
+  check_usage_error("replay " + epoch + " --cp 1e6", "--cp 1e6 h is longer than " + epoch + " (16.583333333333332 h)");
   // --seed belongs to the simulated cases; with a file it was ignored, yet stored in the identity.
   check_usage_error("replay " + epoch + " --seed 7", "--seed applies to --case (a simulated load case), not to a FILE");
   std::filesystem::remove(epoch);
