@@ -225,10 +225,11 @@ void print_nc_summary(const std::string& source, const std::filesystem::path& di
 
 enum class ResumePlan { Begin, Resume, Stored };
 
-// Per source (with the identity it would store): Resume its unfinished run; Stored for a finished
-// run of the same identity (its stored indicators in `stored`); Begin where the history has no run
-// of it. Refused (UsageError, nothing changed) when a finished run has another identity, or when
-// nothing is left to resume (no run at all, or every one finished).
+// Per source (with the identity it would store): Resume its latest unfinished run (running or
+// stopped: the run RunLifecycle resumes); else Stored for its latest finished run (its stored
+// indicators in `stored`); else Begin. Refused (UsageError) before anything is changed when a run to
+// resume or to show has another identity (parameters or data), or when nothing is left to resume (no
+// run at all, or every one finished).
 std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std::pair<std::string, std::string>>& sources,
                                     std::vector<std::optional<runtime::ReplayReport>>& stored) {
   const storage::HistoryReader history(db);
@@ -237,22 +238,29 @@ std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std
   bool any_run = false, any_open = false;
   for (std::size_t k = 0; k < sources.size(); ++k) {
     const auto& [source, identity] = sources[k];
-    const storage::RunRecord* latest = nullptr;
-    for (const auto& r : runs)
-      if (r.source == source) latest = &r;
-    if (latest == nullptr) {
+    const storage::RunRecord *open = nullptr, *latest = nullptr;
+    for (const auto& r : runs) {
+      if (r.source != source) continue;
+      if (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped) open = &r;
+      if (r.status == storage::RunStatus::Finished) latest = &r;
+    }
+    if (open == nullptr && latest == nullptr) {
       plans.push_back(ResumePlan::Begin);
       continue;
     }
     any_run = true;
-    if (latest->status != storage::RunStatus::Finished) {
-      plans.push_back(ResumePlan::Resume);  // RunLifecycle judges its identity
+    const storage::RunRecord& run = open ? *open : *latest;
+    // Judged here for every case, so that no case is begun or resumed before another is refused.
+    if (run.config_json != identity)
+      throw UsageError(db + ": the " + (open ? "unfinished" : "finished") + " run " + std::to_string(run.run_id) +
+                       " of '" + source + "' was made with other parameters or data (" +
+                       runtime::config_difference(run.config_json, identity) +
+                       "); nothing was changed; resume the cases one by one or give another --db");
+    if (open) {
+      plans.push_back(ResumePlan::Resume);
       any_open = true;
       continue;
     }
-    if (latest->config_json != identity)
-      throw UsageError(db + ": the finished run " + std::to_string(latest->run_id) + " of '" + source +
-                       "' was made with other parameters or data; resume the cases one by one or give another --db");
     const auto indicators = history.indicators(latest->run_id);
     if (!indicators)
       throw UsageError(db + ": the finished run " + std::to_string(latest->run_id) + " of '" + source +
@@ -279,6 +287,10 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError(std::string("--baselines: ") + e.what());
     }
   }
+  // Before any case runs (with several cases, one might be begun before another is resumed).
+  if (a.resume && !baselines.empty())
+    throw UsageError("--baselines cannot be evaluated on a resumed run (they are fitted once at the end of CP and "
+                     "not kept by its snapshots); replay without --resume");
   std::vector<std::pair<std::string, scenarios::Scenario>> cases;
   if (!a.file.empty()) {
     cases.emplace_back(a.file, scenarios::read_scenario_csv(a.file));
@@ -386,9 +398,9 @@ void run_replay(const ReplayArgs& a) {
     if (replay->nc() && replay->nc_summary())
       print_nc_summary(source, nc_dir_of(a, name, cases.size() > 1), dialect, *replay->nc(), *replay->nc_summary());
     if (!replay->finished()) {
-      // Where it really stopped (the next sample to replay): a resume with a --stop-at already passed
-      // stops where it resumed.
-      const double stopped_h = (scenario.time_s[replay->position()] - t0) / 3600.0;
+      // Where it really stopped (the next sample to replay, to 0.01 h): a resume with a --stop-at already
+      // passed stops where it resumed.
+      const double stopped_h = std::round((scenario.time_s[replay->position()] - t0) / 36.0) / 100.0;
       std::cerr << source << ": stopped at " << common::shortest_text(stopped_h)
                 << " h of scenario time (run " << *replay->run_id() << " in " << a.db
                 << "); the indicators below are of that part; continue with --resume\n";
@@ -492,10 +504,13 @@ void add_replay_command(CLI::App& app) {
                      {"plausible-other", &args->plausible_other}});
   cmd->add_option("--db", args->db,
                   "Record the run in this SQLite history database (created if missing; see 'History database')");
-  add_number_option(cmd, "--stop-at", args->stop_at_h, "Stop after H hours of scenario time and save the state (needs --db)",
+  add_number_option(cmd, "--stop-at", args->stop_at_h,
+                    "Stop after H hours of scenario time (from the first sample), save the state and print the "
+                    "indicators of the part replayed (needs --db)",
                     0.0, kMaxHours);
   cmd->add_flag("--resume", args->resume,
-                "Continue the latest unfinished run of this scenario in --db from its saved state");
+                "Continue the latest unfinished run of this scenario in --db from its saved state; with several "
+                "cases, a finished one is shown from its stored indicators and one never begun begins");
   add_number_option(cmd, "--kill-at", args->kill_at_h,
                     "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
                     "time, leaving the history as a crash would",

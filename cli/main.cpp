@@ -87,9 +87,10 @@ int run(int argc, char** argv) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return 2;
   } catch (const alc::scenarios::ScenarioCsvError& e) {
-    // A scenario CSV that is missing or breaks the contract: input, like a bad config or grid.
+    // A scenario CSV that is missing or breaks the contract: input, like a bad config or grid; a
+    // read that fails midway is a failure while running.
     std::cerr << "alc: error: " << e.what() << "\n";
-    return 2;
+    return e.reason == "read error" ? 1 : 2;
   } catch (const alc::storage::StorageError& e) {
     std::cerr << "alc: error: " << e.what() << "\n";
     return wrong_input(e.kind) ? 2 : 1;

@@ -124,7 +124,12 @@ std::vector<double> nice_ticks(double lo, double hi, int target, bool hours) {
     for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
       if (m * mag <= raw * 1.5) step = m * mag;
   }
-  for (double t = std::ceil(lo / step - 1e-9) * step; t <= hi + step * 1e-9; t += step) ticks.push_back(t);
+  // At most a few times the target: near the largest double, t + step can round to t or overflow.
+  const double end = hi + step * 1e-9;
+  for (double t = std::ceil(lo / step - 1e-9) * step; std::isfinite(t) && t <= end; t += step) {
+    ticks.push_back(t);
+    if (ticks.size() > static_cast<std::size_t>(4 * target + 2)) return {};
+  }
   return ticks;
 }
 
@@ -148,10 +153,15 @@ std::string render_svg(const Chart& c) {
         yhi = std::max(yhi, v);
       }
   if (!(ylo <= yhi)) ylo = -1.0, yhi = 1.0;
-  if (yhi - ylo < 1e-12) ylo -= 1.0, yhi += 1.0;
   // In halves: values near ±1.8e308 (an input with its plausibility limit off) would make the span
-  // yhi - ylo infinite, and every point NaN in the drawing.
+  // yhi - ylo infinite, and every point NaN in the drawing. A flat series is widened relative to its
+  // size (±1 is lost in rounding beyond 2^53).
   const double big = std::numeric_limits<double>::max();
+  if (const double size = std::max(std::abs(ylo), std::abs(yhi)); yhi / 2 - ylo / 2 < 0.5e-12 * std::max(1.0, size)) {
+    const double widen = std::max(1.0, 1e-6 * size);
+    ylo = std::max(-big, ylo - widen);
+    yhi = std::min(big, yhi + widen);
+  }
   const double pad = 0.1 * (yhi / 2 - ylo / 2);
   ylo = std::max(-big, ylo - pad);
   yhi = std::min(big, yhi + pad);

@@ -80,7 +80,6 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRec
   log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
-namespace {
 // What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
 // 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
 std::string config_difference(const std::string& stored_text, const std::string& given_text) {
@@ -99,7 +98,6 @@ std::string config_difference(const std::string& stored_text, const std::string&
   if (lines.size() > 5) text += "; and " + std::to_string(lines.size() - 5) + " more";
   return text;
 }
-}  // namespace
 
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
                            const storage::RunRecord& record, double snapshot_every_s, Resume)

@@ -128,6 +128,21 @@ TEST_CASE("alc replay --case all --resume: after a kill, finished cases are show
   const Run other = alc("replay --case all --db \"" + db.string() + "\" --resume --interval 3");
   CHECK(other.exit_code == 2);
   CHECK_THAT(other.err, Catch::Matchers::Contains("finished run 1 of 'case A' was made with other parameters"));
+  // An unfinished run of other parameters (B) is judged before A would be begun: nothing changes.
+  fs::remove(db);
+  REQUIRE(alc("replay --case B --db \"" + db.string() + "\" --stop-at 10").exit_code == 0);
+  const Run late = alc("replay --case all --db \"" + db.string() + "\" --resume --cp 8");
+  CHECK(late.exit_code == 2);
+  CHECK_THAT(late.err, Catch::Matchers::Contains("the unfinished run 1 of 'case B' was made with other parameters") &&
+                           Catch::Matchers::Contains("cp_duration_s: stored 23400.0, given 28800.0") &&
+                           Catch::Matchers::Contains("nothing was changed"));
+  const Run baselines = alc("replay --case all --db \"" + db.string() + "\" --resume --baselines mlr");
+  CHECK(baselines.exit_code == 2);
+  const Run info = alc("db info \"" + db.string() + "\"");
+  CHECK(info.out.find("case A") == std::string::npos);  // before: A begun and finished, then B refused
+  const Run right = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
+  REQUIRE(right.exit_code == 0);
+  CHECK(indicators_of(right.out) == indicators_of(whole.out));
 }
 
 TEST_CASE("alc replay --resume refuses other parameters than the stored run's") {

@@ -88,6 +88,16 @@ TEST_CASE("render_svg: values near the largest double draw finite coordinates, n
   CHECK(svg.find("inf") == std::string::npos);
   CHECK(svg.find("data-points=\"4\"") != std::string::npos);
   CHECK(nice_ticks(-top, top, 5).empty());  // no tick labels for a span beyond a double
+  // A flat series far beyond 2^53 (a constant input of 1e20 or 1.7e308): +-1 was lost in rounding.
+  for (const double flat : {1e20, top, -top}) {
+    INFO("flat at " << flat);
+    Chart f;
+    f.id = "flat";
+    f.series.push_back({"flat", "#111", Series::Style::Line, {0, 1, 2}, {flat, flat, flat}});
+    const std::string drawn = render_svg(f);
+    CHECK(drawn.find("nan") == std::string::npos);
+    CHECK(drawn.find("inf") == std::string::npos);
+  }
 }
 
 TEST_CASE("nice ticks: round steps - hours in multiples of 6 - 12 - 24 h", "[report][svg]") {

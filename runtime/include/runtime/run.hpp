@@ -23,6 +23,10 @@ namespace alc::runtime {
 // same identity make the same decisions on the same data.
 nlohmann::json canonical_parameters(const AlcParameters& parameters, std::string_view schedule = "paper");
 
+// What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
+// 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
+std::string config_difference(const std::string& stored_text, const std::string& given_text);
+
 // A resume that cannot be done (no unfinished run, another identity): the history is unchanged.
 class ResumeRefused : public std::runtime_error {
  public:
