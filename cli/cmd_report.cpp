@@ -8,7 +8,6 @@
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
 #include "report/html_report.hpp"
-#include "storage/storage_error.hpp"
 
 namespace alc::cli {
 
@@ -32,14 +31,7 @@ void run_report(const ReportArgs& a) {
     html = report::html_report(a.file, o, &stats);
   } catch (const report::UnknownRun& e) {
     throw UsageError(std::string("--run: ") + e.what());
-  } catch (const storage::StorageError& e) {
-    // The file named is not a history this alc can read: the user's input is wrong.
-    if (e.kind == storage::StorageErrorKind::NotADatabase || e.kind == storage::StorageErrorKind::Empty ||
-        e.kind == storage::StorageErrorKind::ForeignDatabase ||
-        e.kind == storage::StorageErrorKind::NotFound || e.kind == storage::StorageErrorKind::NewerSchema)
-      throw UsageError(e.what());
-    throw;
-  }
+  }  // a file that is not a history this alc can read exits 2 by main's one rule (wrong_input)
   io::write_file_atomically(a.out, html);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cout << "report: " << std::filesystem::absolute(a.out).string() << " (" << stats.runs << " run(s)"
