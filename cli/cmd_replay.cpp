@@ -288,9 +288,8 @@ void run_replay(const ReplayArgs& a) {
     }
   }
   // Before any case runs (with several cases, one might be begun before another is resumed).
-  if (a.resume && !baselines.empty())
-    throw UsageError("--baselines cannot be evaluated on a resumed run (they are fitted once at the end of CP and "
-                     "not kept by its snapshots); replay without --resume");
+  if (const std::string why = runtime::resume_problem(a.resume, baselines); !why.empty())
+    throw UsageError("--" + why);
   std::vector<std::pair<std::string, scenarios::Scenario>> cases;
   if (!a.file.empty()) {
     cases.emplace_back(a.file, scenarios::read_scenario_csv(a.file));

@@ -23,9 +23,8 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
       source_(scenario),
       evaluation_(scenario, options_.baselines),
       driver_(controller_) {
-  if (options_.resume && !options_.baselines.empty())
-    throw ResumeRefused("baselines cannot be evaluated on a resumed run (they are fitted once at the end of CP "
-                        "and not kept by its snapshots); replay without --resume");
+  if (const std::string why = resume_problem(options_.resume, options_.baselines); !why.empty())
+    throw ResumeRefused(why);
   driver_.add(evaluation_);
   const bool machine = !options_.db.empty() || options_.nc.has_value();
   if (machine) driver_.set_machine({options_.machine.chain, {}});
@@ -68,6 +67,12 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
 }
 
 Replay::~Replay() = default;
+
+std::string resume_problem(bool resume, const std::vector<BaselineKind>& baselines) {
+  if (!resume || baselines.empty()) return {};
+  return "baselines cannot be evaluated on a resumed run (they are fitted once at the end of CP and not kept by "
+         "its snapshots); replay without --resume";
+}
 
 std::string replay_identity(const ReplayOptions& options) {
   const auto schedule = options.schedule ? options.schedule : options.parameters.schedule_policy();

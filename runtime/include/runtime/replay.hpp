@@ -44,6 +44,10 @@ struct ReplayOptions {
   std::string software_version;            // stored with a new run
 };
 
+// Why a replay with `resume` cannot take `baselines` (empty if it can): Replay refuses it, and a
+// caller that runs several replays asks first, before any of them changes a history.
+std::string resume_problem(bool resume, const std::vector<BaselineKind>& baselines);
+
 // The identity a replay with `options` stores (runs.config_json) and a resume must match: the
 // canonical parameters under the schedule's name, and options.identity.
 std::string replay_identity(const ReplayOptions& options);
