@@ -238,13 +238,12 @@ std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std
   bool any_run = false, any_open = false;
   for (std::size_t k = 0; k < sources.size(); ++k) {
     const auto& [source, identity] = sources[k];
-    const storage::RunRecord *open = nullptr, *latest = nullptr;
-    for (const auto& r : runs) {
-      if (r.source != source) continue;
-      if (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped) open = &r;
-      if (r.status == storage::RunStatus::Finished) latest = &r;
-    }
-    if (open == nullptr && latest == nullptr) {
+    // The run RunLifecycle would resume, else the latest finished one.
+    const std::optional<storage::RunRecord> open = runtime::latest_unfinished_run(runs, source);
+    const storage::RunRecord* latest = nullptr;
+    for (const auto& r : runs)
+      if (r.source == source && r.status == storage::RunStatus::Finished) latest = &r;
+    if (!open && latest == nullptr) {
       plans.push_back(ResumePlan::Begin);
       continue;
     }

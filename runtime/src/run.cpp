@@ -80,6 +80,15 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRec
   log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
+std::optional<storage::RunRecord> latest_unfinished_run(const std::vector<storage::RunRecord>& runs,
+                                                        const std::string& source) {
+  std::optional<storage::RunRecord> found;
+  for (const auto& r : runs)
+    if (r.source == source && (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
+      found = r;
+  return found;
+}
+
 // What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
 // 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
 std::string config_difference(const std::string& stored_text, const std::string& given_text) {
@@ -102,11 +111,7 @@ std::string config_difference(const std::string& stored_text, const std::string&
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
                            const storage::RunRecord& record, double snapshot_every_s, Resume)
     : writer_(writer), snapshot_every_s_(snapshot_every_s) {
-  std::optional<storage::RunRecord> found;
-  for (const auto& r : storage::HistoryReader(db).runs())
-    if (r.source == record.source &&
-        (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
-      found = r;
+  const std::optional<storage::RunRecord> found = latest_unfinished_run(storage::HistoryReader(db).runs(), record.source);
   if (!found) throw ResumeRefused(db.string() + ": no unfinished run of '" + record.source + "' to resume");
   // Another recording under the same name: say so (both content hashes) rather than "other parameters".
   const auto hash_of = [](const std::string& config) {

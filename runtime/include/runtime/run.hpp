@@ -23,6 +23,10 @@ namespace alc::runtime {
 // same identity make the same decisions on the same data.
 nlohmann::json canonical_parameters(const AlcParameters& parameters, std::string_view schedule = "paper");
 
+// The run of `source` that a resume continues: the latest one running or stopped (none if there is none).
+std::optional<storage::RunRecord> latest_unfinished_run(const std::vector<storage::RunRecord>& runs,
+                                                        const std::string& source);
+
 // What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
 // 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
 std::string config_difference(const std::string& stored_text, const std::string& given_text);
