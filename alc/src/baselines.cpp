@@ -102,13 +102,19 @@ Eigen::VectorXd lasso_from(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, d
   return a;
 }
 
-// The least-squares solution of A x = rhs by column-pivoting QR on A with its columns scaled to unit
-// norm: which columns count as dependent does not change when an input is given in other units
-// (an input 1e20 times larger made every other column look dependent).
-Eigen::VectorXd solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& rhs) {
+// The norm of each column of A (1 for a zero or non-finite one): A divided by it has unit columns, so
+// that which columns a pivoted QR counts as dependent does not change when an input is given in other
+// units (an input 1e20 times larger made every other column look dependent).
+Eigen::VectorXd unit_scale(const Eigen::MatrixXd& A) {
   Eigen::VectorXd scale = A.colwise().norm().transpose();
   for (Eigen::Index k = 0; k < scale.size(); ++k)
     if (!(scale(k) > 0.0) || !std::isfinite(scale(k))) scale(k) = 1.0;
+  return scale;
+}
+
+// The least-squares solution of A x = rhs by column-pivoting QR on A with unit columns (unit_scale).
+Eigen::VectorXd solve_scaled(const Eigen::MatrixXd& A, const Eigen::VectorXd& rhs) {
+  const Eigen::VectorXd scale = unit_scale(A);
   const Eigen::MatrixXd As = A * scale.cwiseInverse().asDiagonal();
   return As.colPivHouseholderQr().solve(rhs).cwiseQuotient(scale);
 }
@@ -133,9 +139,7 @@ LinearBaseline ols_on(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const 
   const Eigen::VectorXd yc = y.array() - f.intercept;
   // The linearly independent columns (pivoted QR of the columns scaled to unit norm, so that the
   // choice does not depend on the inputs' units), then a plain QR of those.
-  Eigen::MatrixXd Xs = Xc;
-  for (Eigen::Index c = 0; c < Xs.cols(); ++c)
-    if (const double norm = Xs.col(c).norm(); norm > 0.0 && std::isfinite(norm)) Xs.col(c) /= norm;
+  const Eigen::MatrixXd Xs = Xc * unit_scale(Xc).cwiseInverse().asDiagonal();
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> piv(Xs);
   std::vector<Eigen::Index> independent;
   for (Eigen::Index k = 0; k < piv.rank(); ++k) independent.push_back(piv.colsPermutation().indices()(k));
