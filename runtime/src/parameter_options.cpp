@@ -10,11 +10,6 @@ namespace alc::runtime {
 
 namespace {
 
-constexpr Domain kNumber = Domain::NonNegative;
-constexpr Domain kPositive = Domain::Positive;
-constexpr Domain kPositiveOrInf = Domain::PositiveOrInf;
-constexpr Domain kFlag = Domain::Flag;
-
 // A row of the table (choices: Domain::Choice's words).
 ParameterOption row(std::string_view name, std::string_view unit, Domain domain, std::string_view help, Stage stage,
                     std::string_view field, std::string_view choices = {}) {
@@ -29,44 +24,44 @@ ParameterOption row(std::string_view name, std::string_view unit, Domain domain,
 
 const std::vector<ParameterOption>& parameter_options() {
   static const std::vector<ParameterOption> options = {
-      row("cp", "h", kPositive, "Calibration phase length", Stage::Start, "cp_duration_s"),
-      row("cp-interval", "min", kPositive, "Probe interval during CP", Stage::Start, "cp_interval_s"),
-      row("interval", "h", kPositiveOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"),
-      row("ng-interval", "min", kPositiveOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"),
+      row("cp", "h", Domain::Positive, "Calibration phase length", Stage::Start, "cp_duration_s"),
+      row("cp-interval", "min", Domain::Positive, "Probe interval during CP", Stage::Start, "cp_interval_s"),
+      row("interval", "h", Domain::PositiveOrInf, "Probe interval after CP (inf: no probes after CP)", Stage::CpEnd, "post_cp_interval_s"),
+      row("ng-interval", "min", Domain::PositiveOrInf, "Probe interval in the No-Good phase (inf: no NG burst)", Stage::Breach, "ng_interval_s"),
       row("ng-meas", "-", Domain::WholeOrInf, "Probes in a No-Good phase before the update", Stage::Breach, "ng_measurements"),
-      row("update", "h", kPositiveOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"),
-      row("acl-lin", "µm", kPositive, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"),
-      row("acl-ang", "µm/m", kPositive, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"),
-      row("window", "h", kPositiveOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"),
-      row("since", "h", kNumber, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"),
-      row("half-life", "h", kPositiveOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"),
+      row("update", "h", Domain::PositiveOrInf, "Periodic parameter update interval", Stage::CpEnd, "update_interval_s"),
+      row("acl-lin", "µm", Domain::Positive, "Action control limit of linear errors", Stage::CpEnd, "acl_linear_um"),
+      row("acl-ang", "µm/m", Domain::Positive, "Action control limit of angular errors", Stage::CpEnd, "acl_angular_um_per_m"),
+      row("window", "h", Domain::PositiveOrInf, "Re-identify on the data of the last H hours (inf: all data)", Stage::Start, "learning_window_s"),
+      row("since", "h", Domain::NonNegative, "Re-identify only on probes from this scenario time on", Stage::Start, "learning_since_s"),
+      row("half-life", "h", Domain::PositiveOrInf, "Forgetting: a probe's weight halves every H hours", Stage::Start, "forgetting_half_life_s"),
       row("method", "-", Domain::Choice, "Identification route", Stage::Start, "method", "fixed-poles or output-error"),
       row("max-order", "-", Domain::Order, "Highest number of poles per input tried", Stage::Start, "max_order"),
       row("structure-refresh", "-", Domain::AtLeastOneOrInf, "Data-span growth factor that triggers a structure search",
        Stage::CpEnd, "structure_refresh"),
-      row("no-refit", "-", kFlag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"),
-      row("no-confirm", "-", kFlag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"),
+      row("no-refit", "-", Domain::Flag, "Re-identify only at the end of CP, after NG and at --update", Stage::CpEnd, "refit_on_probe"),
+      row("no-confirm", "-", Domain::Flag, "Learn from a breaching probe at once (no confirmation)", Stage::Breach, "confirm_breach"),
       row("schedule", "-", Domain::Choice, "Post-CP probing: seed 004's fixed interval, or when the model is unsure",
        Stage::CpEnd, "schedule_kind", "paper or adaptive"),
-      row("uncertainty-fraction", "-", kPositive,
+      row("uncertainty-fraction", "-", Domain::Positive,
        "Adaptive: probe when the predicted sigma of the compensated error reaches this x ACL (above 1: a budget "
        "beyond the ACL)", Stage::CpEnd, "uncertainty_fraction"),
-      row("min-interval", "h", kPositive, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"),
-      row("max-interval", "h", kPositiveOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
+      row("min-interval", "h", Domain::Positive, "Adaptive: shortest Post-CP interval", Stage::CpEnd, "min_interval_s"),
+      row("max-interval", "h", Domain::PositiveOrInf, "Adaptive: longest Post-CP interval (inf: no bound, the evidence alone)",
        Stage::CpEnd, "max_interval_s"),
-      row("guard", "-", kFlag, "Back compensation off where it does no good on recent probes (default true)",
+      row("guard", "-", Domain::Flag, "Back compensation off where it does no good on recent probes (default true)",
        Stage::CpEnd, "guard"),
-      row("plausible-lin", "µm", kPositiveOrInf,
+      row("plausible-lin", "µm", Domain::PositiveOrInf,
        "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"),
-      row("plausible-ang", "µm/m", kPositiveOrInf,
+      row("plausible-ang", "µm/m", Domain::PositiveOrInf,
        "A probe's angular error beyond ± this is a sensor fault: set aside for that output (inf: no limit)",
        Stage::Start, "plausible_angular_um_per_m"),
-      row("plausible-temp", "°C", kPositiveOrInf,
+      row("plausible-temp", "°C", Domain::PositiveOrInf,
        "A temperature input (T_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
        Stage::Start, "plausible_temperature_C"),
-      row("plausible-speed", "rpm", kPositiveOrInf,
+      row("plausible-speed", "rpm", Domain::PositiveOrInf,
        "A speed input (n_...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)", Stage::Start, "plausible_speed_rpm"),
-      row("plausible-other", "-", kPositiveOrInf,
+      row("plausible-other", "-", Domain::PositiveOrInf,
        "Any other input (machine states, ...) beyond ± this is a sensor fault: the sample is set aside (inf: no limit)",
        Stage::Start, "plausible_other"),
   };
