@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <initializer_list>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
@@ -367,6 +368,7 @@ void run_replay(const ReplayArgs& a) {
 
   KillSwitch kill;
   std::vector<std::pair<std::string, runtime::ReplayReport>> reports;
+  std::map<std::string, double> stopped_at_h;  // per case stopped before its end: where [h], to 0.01 h
   for (std::size_t k = 0; k < cases.size(); ++k) {
     const auto& [name, scenario] = cases[k];
     const std::string source = source_of(name);
@@ -399,6 +401,7 @@ void run_replay(const ReplayArgs& a) {
       // Where it really stopped (the next sample to replay, to 0.01 h): a resume with a --stop-at already
       // passed stops where it resumed.
       const double stopped_h = std::round((scenario.time_s[replay->position()] - t0) / 36.0) / 100.0;
+      stopped_at_h[name] = stopped_h;
       std::cerr << source << ": stopped at " << common::shortest_text(stopped_h)
                 << " h of scenario time (run " << *replay->run_id() << " in " << a.db
                 << "); the indicators below are of that part; continue with --resume\n";
@@ -407,17 +410,29 @@ void run_replay(const ReplayArgs& a) {
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());
   }
   if (reports.empty()) return;
+  // A case stopped before its end says so in its own document and title: its indicators are of a part.
+  const auto json_of = [&](const std::string& name, const runtime::ReplayReport& r) {
+    nlohmann::json j = runtime::report_json(r);
+    if (const auto s = stopped_at_h.find(name); s != stopped_at_h.end()) j["stopped_at_h"] = s->second;
+    return j;
+  };
   if (a.json) {
     if (reports.size() == 1) {
-      std::cout << runtime::report_json(reports.front().second).dump(2) << "\n";
+      std::cout << json_of(reports.front().first, reports.front().second).dump(2) << "\n";
     } else {
       nlohmann::json j = nlohmann::json::object();
-      for (const auto& [name, r] : reports) j[name] = runtime::report_json(r);
+      for (const auto& [name, r] : reports) j[name] = json_of(name, r);
       std::cout << j.dump(2) << "\n";
     }
     return;
   }
-  for (const auto& [name, r] : reports) print_report(std::cout, "Load case " + name, r);
+  for (const auto& [name, r] : reports) {
+    const auto s = stopped_at_h.find(name);
+    print_report(std::cout,
+                 "Load case " + name +
+                     (s == stopped_at_h.end() ? "" : " (stopped at " + common::shortest_text(s->second) + " h: a part)"),
+                 r);
+  }
   if (reports.size() > 1) {
     std::cout << "\n";
     print_table3(std::cout, reports);

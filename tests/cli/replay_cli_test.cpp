@@ -67,6 +67,9 @@ TEST_CASE("alc replay --stop-at then --resume gives the indicators of an uninter
   // The indicators of the part replayed, as stored with the stop (before: nothing printed, exit 0).
   const auto part = indicators_of(stopped.out);
   CHECK(part["M"].get<int>() < indicators_of(whole.out)["M"].get<int>());
+  // The document of a part says so (before: nothing told it from a whole run but stderr).
+  CHECK(nlohmann::json::parse(stopped.out).at("stopped_at_h") == 40.0);
+  CHECK_FALSE(nlohmann::json::parse(whole.out).contains("stopped_at_h"));
   const Run stored = alc("db export \"" + db.string() + "\" --table run_indicators --out -");
   REQUIRE(stored.exit_code == 0);
   CHECK_THAT(stored.out, Catch::Matchers::Contains("\"\"M\"\":" + std::to_string(part["M"].get<int>()) + ","));
@@ -74,6 +77,7 @@ TEST_CASE("alc replay --stop-at then --resume gives the indicators of an uninter
   INFO(resumed.err);
   REQUIRE(resumed.exit_code == 0);
   CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
+  CHECK_FALSE(nlohmann::json::parse(resumed.out).contains("stopped_at_h"));
   CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
   // Nothing left to resume now.
   const Run again = alc("replay --case B --json --db \"" + db.string() + "\" --resume");
@@ -116,7 +120,10 @@ TEST_CASE("alc replay --case all --resume: after a kill, finished cases are show
   CHECK_THAT(again.err, Catch::Matchers::Contains("nothing to resume: every case's run is finished"));
   // Every case stopped, then A finished alone: A is shown from its stored indicators, B-D resumed.
   fs::remove(db);
-  REQUIRE(alc("replay --case all --db \"" + db.string() + "\" --stop-at 50").exit_code == 0);
+  const Run parts = alc("replay --case all --db \"" + db.string() + "\" --stop-at 50");
+  REQUIRE(parts.exit_code == 0);
+  CHECK_THAT(parts.out, Catch::Matchers::Contains("Load case A (stopped at 50 h: a part)") &&
+                            Catch::Matchers::Contains("Load case D (stopped at 50 h: a part)"));
   REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --resume").exit_code == 0);
   const Run mixed = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
   INFO(mixed.err);
