@@ -28,16 +28,17 @@ struct NcArgs {
   int port = 5007;
 };
 
-// The offsets in force now: axis_offsets lines, at most one per work offset. A work offset without a
-// line is taken as zero offsets.
-std::vector<nc::AxisOffsets> read_in_force(const std::string& path) {
+// The offsets in force now: axis_offsets lines, at most one per work offset (a line without one: the
+// machine config's [nc] work_offset, as for the commands). A work offset without a line is taken as
+// zero offsets.
+std::vector<nc::AxisOffsets> read_in_force(const std::string& path, int default_work_offset) {
   if (const std::string problem = io::input_file_problem(path); !problem.empty())
     throw UsageError("--in-force " + path + ": " + problem);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw UsageError("--in-force: cannot open " + path);
   std::vector<nc::NcCommand> lines;
   try {
-    lines = nc::read_commands_jsonl(in, path);
+    lines = nc::read_commands_jsonl(in, path, default_work_offset);
   } catch (const nc::JsonlError& e) {
     throw UsageError(std::string("--in-force: ") + e.what());
   }
@@ -70,13 +71,13 @@ void run_nc(const NcArgs& args) {
   std::vector<nc::NcCommand> commands;
   try {
     if (args.input.empty() || args.input == "-") {
-      commands = nc::read_commands_jsonl(std::cin, "<stdin>");
+      commands = nc::read_commands_jsonl(std::cin, "<stdin>", config.work_offset);
     } else {
       if (const std::string problem = io::input_file_problem(args.input); !problem.empty())
         throw UsageError("--in " + args.input + ": " + problem);
       std::ifstream in(args.input, std::ios::binary);
       if (!in) throw UsageError("cannot open " + args.input);
-      commands = nc::read_commands_jsonl(in, args.input);
+      commands = nc::read_commands_jsonl(in, args.input, config.work_offset);
     }
   } catch (const nc::JsonlError& e) {
     throw UsageError(e.what());
@@ -86,7 +87,7 @@ void run_nc(const NcArgs& args) {
   // one datum shift for every work offset).
   nc::CommandRecorder recorder = nc::recorder_for(*dialect, config.limits);
   if (!args.in_force.empty()) {
-    for (const nc::AxisOffsets& o : read_in_force(args.in_force)) {
+    for (const nc::AxisOffsets& o : read_in_force(args.in_force, config.work_offset)) {
       try {
         recorder.set_in_force(o);
       } catch (const std::invalid_argument& e) {

@@ -116,8 +116,11 @@ std::string output_file_problem(const std::filesystem::path& path) {
   return {};
 }
 
-void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
-  if (const std::string what = not_replaceable(path); !what.empty())
+// Both forms: `replace` renames over `path`; else the file is linked to `path`, which fails with
+// EEXIST if anything holds that name (then false, nothing written).
+static bool write_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write,
+                      bool replace) {
+  if (const std::string what = not_replaceable(path); replace && !what.empty())
     throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what +
                              ", not a regular file; give a regular file or a new path");
   std::filesystem::path temporary;
@@ -148,13 +151,35 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
   const int closed = ::close(fd);
   fd = -1;
   if (closed != 0) failed("closing " + quoted(temporary) + " failed", errno);
-  if (::rename(temporary.c_str(), path.c_str()) != 0)
-    failed("cannot rename " + quoted(temporary) + " into place", errno);
+  if (replace) {
+    if (::rename(temporary.c_str(), path.c_str()) != 0)
+      failed("cannot rename " + quoted(temporary) + " into place", errno);
+  } else {
+    if (::link(temporary.c_str(), path.c_str()) != 0) {
+      const int error = errno;
+      if (error == EEXIST) {
+        discard();
+        return false;
+      }
+      failed("cannot link " + quoted(temporary) + " into place", error);
+    }
+    ::unlink(temporary.c_str());
+  }
   sync_directory(path);
+  return true;
+}
+
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
+  write_atomically(path, write, true);
 }
 
 void write_file_atomically(const std::filesystem::path& path, std::string_view text) {
   write_file_atomically(path, [text](std::ostream& out) { out.write(text.data(), static_cast<std::streamsize>(text.size())); });
+}
+
+bool write_new_file_atomically(const std::filesystem::path& path, std::string_view text) {
+  return write_atomically(
+      path, [text](std::ostream& out) { out.write(text.data(), static_cast<std::streamsize>(text.size())); }, false);
 }
 
 }  // namespace alc::io

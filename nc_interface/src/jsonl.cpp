@@ -73,7 +73,8 @@ JsonlError::JsonlError(std::string source_, std::size_t line_, std::string field
       source(std::move(source_)), line(line_), field(std::move(field_)), value(shorten(std::move(value_))),
       reason(reason_) {}
 
-NcCommand parse_command_json(const std::string& line_text, const std::string& source, std::size_t line) {
+NcCommand parse_command_json(const std::string& line_text, const std::string& source, std::size_t line,
+                             int default_work_offset) {
   json object;
   try {
     object = common::parse_json_text(line_text);
@@ -98,7 +99,7 @@ NcCommand parse_command_json(const std::string& line_text, const std::string& so
     o.c_deg = *r.number("c_deg", true);
     if (o.a_deg.has_value() == o.b_deg.has_value())
       r.fail(o.a_deg ? "b_deg" : "a_deg", "exactly one of a_deg and b_deg is required");
-    const std::string wo = r.text("work_offset", "G54");
+    const std::string wo = r.text("work_offset", work_offset_name(default_work_offset));
     const auto index = parse_work_offset(wo);
     if (!index) r.fail("work_offset", "must be one of G54 … G59");
     o.work_offset = *index;
@@ -122,13 +123,13 @@ NcCommand parse_command_json(const std::string& line_text, const std::string& so
   return command;
 }
 
-std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source) {
+std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source, int default_work_offset) {
   std::vector<NcCommand> out;
   std::string text;
   for (std::size_t line = 1; std::getline(in, text); ++line) {
     if (!text.empty() && text.back() == '\r') text.pop_back();
     if (text.find_first_not_of(" \t") == std::string::npos) continue;
-    out.push_back(parse_command_json(text, source, line));
+    out.push_back(parse_command_json(text, source, line, default_work_offset));
   }
   return out;
 }

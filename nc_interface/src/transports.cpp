@@ -24,6 +24,8 @@
 namespace alc::nc {
 namespace {
 
+constexpr long kSpoolLast = 999999;
+
 bool is_loopback(const std::string& host) { return host == "127.0.0.1" || host == "localhost" || host == "::1"; }
 
 // Text that goes into the linuxcncrsh protocol must be one word without control characters.
@@ -57,19 +59,30 @@ void SpoolSink::deliver(const NcCommand& command) {
   const std::string program = write_program(dialect_, {command}, options_);
   std::error_code ec;
   if (!std::filesystem::is_directory(dir_, ec)) throw SinkError("spool " + dir_.string() + ": not a directory");
+  // The next number after the highest already there (a name alc_<digits><ext>, any number of digits),
+  // claimed without replacing anything: another writer that took it first makes this one try the next.
   long next = 1;
   for (const auto& entry : std::filesystem::directory_iterator(dir_, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("alc_", 0) == 0 && name.size() >= 10) next = std::max(next, std::atol(name.substr(4, 6).c_str()) + 1);
+    const std::string name = entry.path().stem().string();
+    if (name.rfind("alc_", 0) != 0 || name.size() < 5 || name.size() > 14) continue;
+    if (name.find_first_not_of("0123456789", 4) != std::string::npos) continue;
+    next = std::max(next, std::stol(name.substr(4)) + 1);
   }
   if (ec) throw SinkError("spool " + dir_.string() + ": " + ec.message());
-  char name[32];
-  std::snprintf(name, sizeof name, "alc_%06ld", next);
-  const std::filesystem::path path = dir_ / (name + std::string(program_extension(dialect_)));
-  try {
-    io::write_file_atomically(path, program);
-  } catch (const std::exception& e) {
-    throw SinkError("spool: " + std::string(e.what()));
+  std::filesystem::path path;
+  for (;; ++next) {
+    // Six digits keep the names in order when sorted by name; the millionth file would not be.
+    if (next > kSpoolLast)
+      throw SinkError("spool " + dir_.string() + ": full, alc_" + std::to_string(kSpoolLast) +
+                      " is taken (names past it would sort before it); empty the spool");
+    char name[32];
+    std::snprintf(name, sizeof name, "alc_%06ld", next);
+    path = dir_ / (name + std::string(program_extension(dialect_)));
+    try {
+      if (io::write_new_file_atomically(path, program)) break;
+    } catch (const std::exception& e) {
+      throw SinkError("spool: " + std::string(e.what()));
+    }
   }
   last_ = path;
 }

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
+#include "common/strict_json.hpp"
 #include "nc_interface/commands.hpp"
 #include "runtime/history_recorder.hpp"
 #include "runtime/nc_emitter.hpp"
@@ -274,10 +275,15 @@ void Supervisor::publish(const std::string& topic, const std::string& payload, b
   if (!recovering_) bus_.publish(topic, payload, retained);
 }
 
-void Supervisor::event(Json e) { publish("event", e.dump(), false); }
+void Supervisor::event(Json e) {
+  publish("event", e.dump(-1, ' ', false, Json::error_handler_t::replace), false);
+}
 
-void Supervisor::reject(const std::string& topic, const std::string& reason) {
+void Supervisor::reject(const std::string& topic, const std::string& why) {
   ++counts_.rejected;
+  // The reason may quote the peer's bytes (a Latin-1 input name): as valid UTF-8 (\xNN) for the log and
+  // the event, whose JSON text could not be written otherwise.
+  const std::string reason = common::valid_utf8(why);
   logger()->warn("message on {} rejected: {}", topic, reason);
   event({{"type", "MessageRejected"}, {"topic", topic}, {"reason", reason}});
 }
@@ -436,7 +442,10 @@ void Supervisor::feed(const SampleMessage& m) {
   const ControllerOutput out = driver_.sample(s);
   if (!out.accepted) return reject("sample", out.reason);
   if (offsets_changed_ || m.time_s >= last_offsets_s_ + 900.0) publish_offsets(m.time_s);
-  if (!outstanding_ && m.time_s >= controller_.state().next_probe_due_s) request_probe(m.time_s);
+  // A probe is asked for at the latest sample received, not at one of a backlog being fed after a
+  // timeout: the request's timeout counts from the latest sample, so asking at each sample of the
+  // backlog would hold the rest again and release one sample per timeout.
+  if (!outstanding_ && held_.empty() && m.time_s >= controller_.state().next_probe_due_s) request_probe(m.time_s);
   if (!outstanding_ && held_.empty()) {
     // A consistent point: every inbox entry up to this one is processed.
     next_seq_ = entry_seq_ + 1;

@@ -251,10 +251,11 @@ TEST_CASE("bad messages are rejected with the reason and stale sensors hold the 
   for (const Json& e : c.events()) timed_out = timed_out || (e.value("type", "") == "ProbeTimeout" && e.value("id", 0) == 1);
   CHECK(timed_out);
   CHECK(c.state()["probe_timeouts"] == 1);
-  // The held samples go to the controller; the first (t = 60 s) is past the due time again, so it asks
-  // again (a new id) and the rest are held for that request.
-  CHECK(c.state()["samples"] == 2);
-  CHECK(c.state()["held"] == 10);
+  // The held samples go to the controller, all of them: the probe is past due again, and it is asked
+  // for (a new id) at the latest sample, t = 660 s. Before, the first held sample (t = 60 s) asked and
+  // the other 10 were held again, one sample released per timeout.
+  CHECK(c.state()["samples"] == 12);
+  CHECK(c.state()["held"] == 0);
   CHECK(c.state()["outstanding_probe"] == 2);
 
   // Sensors go quiet: stale, and no offsets while stale.
@@ -275,11 +276,10 @@ TEST_CASE("bad messages are rejected with the reason and stale sensors hold the 
   const auto run = r.runs().back();
   CHECK(run.status == storage::RunStatus::Stopped);
   // t = 720 s does not time probe 2 out: it was asked when t = 660 s had arrived, so its timeout counts
-  // from there (until t = 1260 s). Before, the held t = 60 s that asked started its clock, t = 720 s
-  // timed it out at once, and so on for every sample after one unanswered probe. The held samples
-  // wait in the inbox (processed after a restart).
+  // from there (until t = 1260 s). The sample held for it (t = 720 s) waits in the inbox (processed
+  // after a restart); the 12 before it are in the history.
   CHECK(c.state()["probe_timeouts"] == 1);
-  CHECK(r.input_samples(run.run_id).size() == 2);
+  CHECK(r.input_samples(run.run_id).size() == 12);
 }
 
 TEST_CASE("username and password file on a broker with an ACL and wrong credentials are a clear error") {

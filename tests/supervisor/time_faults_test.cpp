@@ -99,6 +99,47 @@ TEST_CASE("supervisor: a probe never answered times out once, the next request i
   CHECK(static_cast<std::int64_t>(sup.controller().state().probes.size()) >= asked - 3);
 }
 
+TEST_CASE("supervisor: a gateway that answers no probe holds samples for one timeout at a time, not for ever") {
+  Rig rig("probe-never", 8.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  std::size_t most_held = 0;
+  double most_behind_s = 0.0;
+  for (std::size_t row = 0; row < rig.s.samples(); ++row) {
+    sup.on_message("sample", rig.sample(row), 0.0);
+    most_held = std::max(most_held, sup.held());
+    if (sup.controller().state().started)
+      most_behind_s = std::max(most_behind_s, rig.s.time_s[row] - sup.controller().state().now_s);
+  }
+  INFO("requests " << sup.counts().requests << ", timeouts " << sup.counts().timeouts << ", most held " << most_held
+                   << ", most behind " << most_behind_s << " s");
+  // Before: after the first timeout each sample of the backlog asked again from the latest sample on,
+  // so one sample was released per timeout and the rest held (290 of 300 samples held, 17,400 s behind).
+  const double period_s = rig.s.time_s[1] - rig.s.time_s[0];
+  CHECK(most_behind_s <= 1800.0 + period_s);  // probe_timeout_s of the rig
+  CHECK(most_held <= static_cast<std::size_t>(1800.0 / period_s) + 1);
+  CHECK(sup.held() <= static_cast<std::size_t>(1800.0 / period_s) + 1);
+  CHECK(sup.counts().timeouts >= 8 * 3600 / (1800 + 2 * 60) - 1);  // one request per timeout and sample after it
+  CHECK(sup.counts().requests == sup.counts().timeouts + 1);
+}
+
+TEST_CASE("supervisor: a payload with bytes that are not UTF-8 is rejected by name, and the supervisor goes on") {
+  Rig rig("latin1", 1.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  sup.on_message("sample", rig.sample(0), 0.0);
+  // A Windows gateway's Latin-1 input name (T_\xE9), and a payload that starts with 0xFF. Before, the
+  // event quoting them could not be written as JSON and the supervisor exited.
+  Json j = Json::parse(rig.sample(1));
+  std::string text = j.dump();
+  text.insert(text.find("\"inputs\":{") + 10, "\"T_\xE9\":1,");
+  REQUIRE_NOTHROW(sup.on_message("sample", text, 0.0));
+  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::Contains("T_\\xE9"));
+  REQUIRE_NOTHROW(sup.on_message("sample", "\xFF{}", 0.0));
+  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::Contains("\\xFF"));
+  CHECK(sup.counts().rejected == 2);
+  sup.on_message("sample", rig.sample(1), 0.0);
+  CHECK(sup.counts().received == 2);
+}
+
 TEST_CASE("supervisor: a result whose time is after its probe's timeout is refused, the right one is learned") {
   Rig rig("probe-future", 1.0);
   supervisor::Supervisor sup(rig.config, rig.bus, "test");

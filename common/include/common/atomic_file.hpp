@@ -27,4 +27,9 @@ std::string output_file_problem(const std::filesystem::path& path);
 // propagates as it is (after the temporary file is removed); a failed stream is a write error.
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
 
+// The same, but never over a file: `path` is claimed with link(2), so of two writers of the same new
+// name one wins and the other gets false (its temporary file removed, nothing written); false too if
+// `path` exists already, whatever it is. True when the file is in place.
+bool write_new_file_atomically(const std::filesystem::path& path, std::string_view text);
+
 }  // namespace alc::io

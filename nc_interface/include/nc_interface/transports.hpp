@@ -41,8 +41,10 @@ class StreamSink : public Sink {
   DialectOptions options_;
 };
 
-// Writes each command as one program file `alc_NNNNNN<ext>` in `dir` (temporary name, then rename),
-// numbered after the highest number already there, so a reader sees whole files in order.
+// Writes each command as one program file `alc_NNNNNN<ext>` in `dir` (temporary name, then linked to
+// its name), numbered after the highest number already there, so a reader sees whole files in order.
+// A name is never replaced: two writers on one spool each get names of their own. After alc_999999
+// the spool is full (SinkError).
 class SpoolSink : public Sink {
  public:
   SpoolSink(std::filesystem::path dir, Dialect dialect, DialectOptions options = {});
