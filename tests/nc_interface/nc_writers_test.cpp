@@ -2,6 +2,9 @@
 // machine config, the replay entry point, transports and the `alc nc` command.
 #include <catch2/catch.hpp>
 
+#include <set>
+#include <thread>
+
 #include <algorithm>
 #include <arpa/inet.h>
 #include <array>
@@ -654,6 +657,47 @@ TEST_CASE("transports: spool writes whole numbered files, stream writes programs
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("transports: two spool writers on one directory never replace each other's files", "[nc][transport]") {
+  const auto dir = alc::nc::test::fresh_dir("spool_two");
+  // Each writer numbers after the highest file it sees; both see the same one often. Before, the
+  // second rename replaced the first writer's file and both reported every command delivered.
+  constexpr int kEach = 200;
+  const auto writer = [&](double first) {
+    SpoolSink spool(dir, Dialect::LinuxCNC);
+    for (int i = 0; i < kEach; ++i) spool.deliver(ProbeInterval{first + i, {}});
+  };
+  std::thread a(writer, 1.0), b(writer, 1001.0);
+  a.join();
+  b.join();
+  std::set<std::string> intervals;
+  std::size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    ++files;
+    const std::string text = alc::nc::test::read_text(e.path());
+    const auto at = text.find("#3001 = ");
+    REQUIRE(at != std::string::npos);
+    intervals.insert(text.substr(at, text.find('\n', at) - at));
+  }
+  CHECK(files == 2 * kEach);
+  CHECK(intervals.size() == 2 * kEach);  // every command in a file of its own
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("transports: a spool past alc_999999 is full, not out of order", "[nc][transport]") {
+  const auto dir = alc::nc::test::fresh_dir("spool_full");
+  alc::nc::test::write_text(dir / "alc_999998.ngc", "%\n");
+  SpoolSink spool(dir, Dialect::LinuxCNC);
+  spool.deliver(ProbeInterval{1.0, {}});
+  CHECK(spool.last_file().filename() == "alc_999999.ngc");
+  // alc_1000000 would sort before alc_999999 by name.
+  CHECK_THROWS_WITH(spool.deliver(ProbeInterval{2.0, {}}), Contains("full, alc_999999 is taken"));
+  // A seven-digit name someone else wrote counts as the highest too.
+  std::filesystem::remove(dir / "alc_999999.ngc");
+  alc::nc::test::write_text(dir / "alc_1000000.ngc", "%\n");
+  CHECK_THROWS_WITH(spool.deliver(ProbeInterval{2.0, {}}), Contains("full"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("transports: linuxcncrsh refuses other hosts and reports a closed port", "[nc][transport]") {
   LinuxcncrshOptions o;
   o.host = "192.168.1.10";
@@ -711,6 +755,25 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   CHECK(alc::nc::test::read_text(dir / "out").empty());
   CHECK(run("--dialect fanuc --in-force " + dir.string() + " --in " + (dir / "in.jsonl").string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not a regular file (a directory)"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("alc nc: a command without a work offset goes to the machine file's [nc] work_offset", "[nc][cli]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_work_offset");
+  const std::string alc = ALC_CLI_PATH;
+  alc::nc::test::write_text(dir / "in.jsonl",
+                            "{\"type\":\"axis_offsets\",\"x_mm\":0.005,\"y_mm\":0,\"z_mm\":0,\"a_deg\":0,\"c_deg\":0}\n"
+                            "{\"type\":\"axis_offsets\",\"x_mm\":0.006,\"y_mm\":0,\"z_mm\":0,\"a_deg\":0,\"c_deg\":0,"
+                            "\"work_offset\":\"G57\"}\n");
+  alc::nc::test::write_text(dir / "m.toml", "[nc]\nwork_offset = \"G55\"\n");
+  const std::string cmd = alc + " nc --dialect linuxcnc --machine " + (dir / "m.toml").string() + " --in " +
+                          (dir / "in.jsonl").string() + " > " + (dir / "out").string();
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const std::string out = alc::nc::test::read_text(dir / "out");
+  // Before: G54 (P1), the key silently ignored. A work offset given in the line stays its own.
+  CHECK_THAT(out, Contains("G10 L2 P2 X0.0050"));
+  CHECK_THAT(out, Contains("G10 L2 P4 X0.0060"));
+  CHECK_THAT(out, !Contains(" P1 "));
   std::filesystem::remove_all(dir);
 }
 
