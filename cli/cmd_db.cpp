@@ -81,7 +81,7 @@ void run_export(const std::string& file, const std::string& table, const std::st
   }
   // The rename below would replace the database (or its WAL journal) with CSV.
   const std::filesystem::path target(out);
-  refuse_output_over_database("--out", target, file, "the history database");
+  refuse_output_over_input("--out", target, file, "the history database");
   // Written beside the target and renamed, so a reader never sees half a file.
   io::write_file_atomically(target, [&](std::ostream& stream) { storage::export_table_csv(file, table, stream); });
 }
@@ -101,7 +101,7 @@ void run_bench(const storage::BenchOptions& options, const std::string& dir) {
 
 }  // namespace
 
-void refuse_output_over_database(const std::string& option, const std::filesystem::path& target,
+void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
                                  const std::string& database, const std::string& what) {
   namespace fs = std::filesystem;
   if (database.empty() || target.empty() || target == "-") return;

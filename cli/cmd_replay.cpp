@@ -300,7 +300,8 @@ void run_replay(const ReplayArgs& a) {
     }
   }
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
-  refuse_output_over_database("--residuals", a.residuals, a.db, "the history database");
+  refuse_output_over_input("--residuals", a.residuals, a.db, "the history database");
+  refuse_output_over_input("--residuals", a.residuals, a.file, "the recording replayed");
   // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes. And
   // one before it begins: --since counts from scenario time 0 (a file stamped in Unix time starts at
   // ~470,000 h), so --since 26 meant as "26 h in" would silently change nothing.

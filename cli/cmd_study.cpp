@@ -280,7 +280,8 @@ void run_study_command(const StudyArgs& a) {
   // Before the rows are computed, not after (hours of work, lost without --db).
   if (const std::string problem = a.csv.empty() ? "" : io::output_file_problem(a.csv); !problem.empty())
     throw UsageError("--csv " + a.csv + ": " + problem);
-  refuse_output_over_database("--csv", a.csv, a.db, "the study database");
+  refuse_output_over_input("--csv", a.csv, a.db, "the study database");
+  for (const std::string& f : a.files) refuse_output_over_input("--csv", a.csv, f, "a recording the study reads");
 
   std::vector<storage::StudyRowRecord> rows;
   std::unique_ptr<storage::StudyStore> store;
@@ -395,7 +396,7 @@ void run_merge(const MergeArgs& a) {
 
 void run_report(const ReportArgs& a) {
   if (std::error_code missing; !fs::exists(a.file, missing)) throw UsageError(a.file + ": no such file");
-  refuse_output_over_database("--csv", a.csv, a.file, "the study database");
+  refuse_output_over_input("--csv", a.csv, a.file, "the study database");
   const auto h = storage::StudyStore::header_of(a.file);
   if (!h) throw UsageError(a.file + ": holds no study");
   const study::StudyInfo info = study::StudyInfo::of(*h);

@@ -21,11 +21,12 @@ struct ExitStatus : std::runtime_error {
   int code;
 };
 
-// Throws UsageError if the output file `target` of `option` ("--out") is the SQLite file `database`
-// (`what`: "the history database") or one of its journals (-wal, -shm, -journal), under any spelling:
-// the same path after resolving symlinks and `.`/`..`, or the same file (a hard link). Writing there
-// would replace the database with the output. Nothing to check for an empty database or target, or "-".
-void refuse_output_over_database(const std::string& option, const std::filesystem::path& target,
+// Throws UsageError if the output file `target` of `option` ("--out") is the input file `database`
+// (`what`: "the history database", "the recording replayed") or one of its SQLite journals (-wal,
+// -shm, -journal), under any spelling: the same path after resolving symlinks and `.`/`..`, or the
+// same file (a hard link). Writing there would replace the input with the output. Nothing to check
+// for an empty input or target, or "-".
+void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
                                  const std::string& database, const std::string& what);
 
 // [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.

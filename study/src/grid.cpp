@@ -38,11 +38,26 @@ std::string known_keys() {
   return k;
 }
 
-// A TOML value as the text an option takes: numbers in their shortest form, strings and booleans as written.
+// A TOML value as the text an option takes: numbers in their shortest form, also when written as a
+// string ("6.50" is 6.5, "Inf" is inf: one value, so a duplicate is found and the CSV has one
+// spelling); other strings and booleans as written. Hex, octal and binary integers are refused, as
+// the options refuse "0x10".
 std::string text_of(const std::string& file, const std::string& key, const toml::node& node) {
-  if (const auto* i = node.as_integer()) return std::to_string(i->get());
+  if (const auto* i = node.as_integer()) {
+    if (i->flags() != toml::value_flags::none)
+      throw GridError(where(file, node) + ": key '" + key + "', value '" + std::to_string(i->get()) +
+                      "': write it in decimal digits (hex, octal and binary integers are not taken)");
+    return std::to_string(i->get());
+  }
   if (const auto* f = node.as_floating_point()) return common::shortest_text(f->get());
-  if (const auto* s = node.as_string()) return s->get();
+  if (const auto* s = node.as_string()) {
+    try {
+      const double v = common::parse_number(key, s->get(), true);
+      return std::isinf(v) ? "inf" : common::shortest_text(v);
+    } catch (const std::invalid_argument&) {
+      return s->get();  // a word (a method, a schedule) or a malformed number: check_value judges it
+    }
+  }
   if (const auto* b = node.as_boolean()) return b->get() ? "true" : "false";
   throw GridError(where(file, node) + ": key '" + key + "': a value must be a number, a string or true/false");
 }
@@ -200,6 +215,20 @@ Grid parse_grid(std::string_view text, const std::string& file) {
     g.axes.emplace_back(key, std::move(texts));
   }
   if (g.axes.empty()) throw GridError(file + ": no axis (a key with a list of values)");
+  // Refused before any work: a grid's sets are held in memory (and run), so a product of 20 values on
+  // 8 axes (2.56e10 sets) would grow until the machine runs out, and 2^64 would wrap to 0.
+  std::uint64_t count = 1;
+  std::string product;
+  bool beyond = false;
+  for (const auto& [key, values] : g.axes) {
+    product += (product.empty() ? "" : " x ") + std::to_string(values.size()) + " (" + key + ")";
+    if (!beyond && count > kMaxGridSets / values.size()) beyond = true;
+    if (!beyond) count *= values.size();
+  }
+  if (beyond || count > kMaxGridSets)
+    throw GridError(file + ": " + product + " = " + (beyond ? "more than " + std::to_string(kMaxGridSets) : std::to_string(count)) +
+                    " sets, more than a study takes (" + std::to_string(kMaxGridSets) +
+                    "); split the grid into several files or list fewer values");
   return g;
 }
 

@@ -416,5 +416,23 @@ TEST_CASE("an output file that is the database read or written is refused, and t
     CHECK(slurp(db) == before);  // before: report --out DB replaced the history with HTML, exit 0
   }
   CHECK_FALSE(fs::exists(db + "x"));
+  // An input recording is not an output either (before: the study's CSV and the replay's residuals
+  // replaced it, exit 0).
+  const std::string csv = (dir / "a.csv").string();
+  REQUIRE(alc("simulate --case A --out \"" + csv + "\"").exit_code == 0);
+  const std::string recording = slurp(csv);
+  const std::pair<std::string, std::string> over_input[] = {
+      {"study --grid \"" + (dir / "g.toml").string() + "\" \"" + csv + "\" --quiet --csv \"" +
+           (dir / "." / "a.csv").string() + "\"",
+       "is a recording the study reads '" + csv + "' itself"},
+      {"replay \"" + csv + "\" --residuals \"" + csv + "\"", "--residuals '" + csv + "' is the recording replayed"},
+  };
+  for (const auto& [command, says] : over_input) {
+    INFO("alc " << command);
+    const Run r = alc(command);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(says) && Catch::Matchers::Contains("choose another"));
+    CHECK(slurp(csv) == recording);
+  }
   fs::remove_all(dir);
 }

@@ -70,6 +70,42 @@ TEST_CASE("a bad grid names the file, line, key and value before any run") {
   CHECK(error_of("method = [\"magic\"]\n").find("not fixed-poles or output-error") != std::string::npos);
   CHECK(error_of("cp = [1\n").rfind("g.toml:", 0) == 0);  // a TOML syntax error keeps file:line
   CHECK(error_of("[fixed]\ncp = 6\n").find("no axis") != std::string::npos);
+  // A number written as a string is that number: a duplicate is found (before: 6 equal sets).
+  CHECK(error_of("cp = [6.5, \"6.50\"]\n").find("g.toml:1:12: key 'cp', value '6.5' is listed twice") == 0);
+  CHECK(error_of("interval = [2, \"2.0\"]\n").find("value '2' is listed twice") != std::string::npos);
+  CHECK(error_of("interval = [\"inf\", \"Inf\"]\n").find("value 'inf' is listed twice") != std::string::npos);
+  // Hex, octal and binary TOML integers are refused, as "0x10" is (before: cp = 16).
+  CHECK(error_of("cp = [0x10]\n") ==
+        "g.toml:1:7: key 'cp', value '16': write it in decimal digits (hex, octal and binary integers are not taken)");
+  CHECK(error_of("cp = [0o20]\n").find("write it in decimal digits") != std::string::npos);
+  CHECK(error_of("cp = [0b10000]\n").find("write it in decimal digits") != std::string::npos);
+}
+
+TEST_CASE("a number written as a string takes its shortest form, the one the CSV shows") {
+  const Grid g = parse_grid("interval = [\"2.50\", \"Inf\", \"1e1\"]\nng-meas = [\"6.0\"]\n", "g.toml");
+  CHECK(g.axes[0].second == std::vector<std::string>{"2.5", "inf", "10"});
+  CHECK(g.axes[1].second == std::vector<std::string>{"6"});
+}
+
+TEST_CASE("a grid of more sets than a study takes is refused before any work, without wrapping") {
+  std::string text;
+  for (const char* key : {"cp", "cp-interval", "interval", "ng-interval", "ng-meas", "acl-lin", "acl-ang", "window"}) {
+    text += std::string(key) + " = [";
+    for (int v = 1; v <= 256; ++v) text += (v > 1 ? ", " : "") + std::to_string(v);
+    text += "]\n";
+  }
+  // 256^8 = 2^64 sets: counted in 64 bits it would be 0. Before: memory grew until the machine ran out.
+  CHECK_THAT(error_of(text), Catch::Contains("= more than 1000000 sets, more than a study takes (1000000)"));
+  // At the limit it is taken: 1000 x 1000.
+  std::string limit = "cp = [", second = "acl-lin = [";
+  for (int v = 1; v <= 1000; ++v) {
+    limit += (v > 1 ? ", " : "") + std::to_string(v);
+    second += (v > 1 ? ", " : "") + std::to_string(v);
+  }
+  const std::string at_limit = limit + "]\n" + second + "]\n";
+  CHECK_NOTHROW(parse_grid(at_limit, "g.toml"));
+  CHECK_THAT(error_of(at_limit + "acl-ang = [1, 2]\n"),
+             Catch::Contains("1000 (cp) x 1000 (acl-lin) x 2 (acl-ang) = more than 1000000 sets"));
 }
 
 TEST_CASE("an invalid combination is a set with its error, not a refused grid") {

@@ -3,6 +3,7 @@
 // axes, plus options fixed for every set. The built-in `paper` grid is Tab. 1 of seed 004 read so
 // that it gives the study's 2,191 sets; any other grid is a TOML file (docs/study.md).
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -32,6 +33,10 @@ struct ParameterSet {
   std::string error;                 // why the combination is invalid (the set's rows carry it)
   std::string value(std::string_view option) const;  // the axis value, "" if not set here
 };
+
+// The most sets a grid file may give (the product of its axes, before moot duplicates are left out):
+// a study holds its sets in memory, about 1.3 KB each.
+inline constexpr std::uint64_t kMaxGridSets = 1'000'000;
 
 struct Grid {
   std::string name;                                                  // "paper" or the file
