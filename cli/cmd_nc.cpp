@@ -82,6 +82,12 @@ void run_nc(const NcArgs& args) {
   } catch (const nc::JsonlError& e) {
     throw UsageError(e.what());
   }
+  // A work offset that G10 L2 would replace needs its base (docs/nc.md, "Base offsets").
+  for (std::size_t i = 0; i < commands.size(); ++i)
+    if (const auto* o = std::get_if<nc::AxisOffsets>(&commands[i]))
+      if (const std::string why = nc::missing_base(*dialect, config.nc, o->work_offset); !why.empty())
+        throw UsageError("command " + std::to_string(i + 1) + ": " + why +
+                         (args.machine.empty() ? "; give --machine FILE" : " in " + args.machine));
   // Safety first: nothing is written when any command is refused. max_step is judged from the
   // offsets in force (--in-force), else from zero offsets, per register of the dialect (heidenhain:
   // one datum shift for every work offset).

@@ -198,6 +198,17 @@ std::string validate(const DialectOptions& o) {
   return {};
 }
 
+std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset) {
+  if (dialect != Dialect::LinuxCNC && dialect != Dialect::Fanuc) return {};
+  if (work_offset < kMinWorkOffset || work_offset > kMaxWorkOffset) return {};  // validate() says so
+  if (options.base[static_cast<std::size_t>(work_offset - 1)].given) return {};
+  const std::string wo = work_offset_name(work_offset);
+  return std::string(dialect == Dialect::LinuxCNC ? "linuxcnc" : "fanuc") + " writes G10 L2, which replaces the whole " +
+         wo + " with base + compensation, and the machine file gives no base for it: the operator's " + wo +
+         " would become the compensation alone. Write the work offset without compensation as [nc.base." + wo +
+         "] (x_mm, y_mm, z_mm, a_deg or b_deg, c_deg; all 0 only if " + wo + " really is 0)";
+}
+
 std::string validate(const NcCommand& command) {
   if (const auto* o = std::get_if<AxisOffsets>(&command)) {
     if (o->work_offset < kMinWorkOffset || o->work_offset > kMaxWorkOffset)

@@ -140,6 +140,7 @@ void read_nc(Table t, MachineConfig& config) {
     if (!index) base.fail(key, "must be one of G54 … G59");
     BaseOffset& b = o.base[static_cast<std::size_t>(*index - 1)];
     Table bt = base.sub(key);
+    b.given = true;
     bt.number("x_mm", b.x_mm);
     bt.number("y_mm", b.y_mm);
     bt.number("z_mm", b.z_mm);

@@ -42,8 +42,13 @@ class MqttBus : public Bus {
       const std::string pw = c.mqtt.password_file ? password_of(c) : std::string();
       mosquitto_username_pw_set(m_, c.mqtt.username->c_str(), c.mqtt.password_file ? pw.c_str() : nullptr);
     }
-    if (c.mqtt.tls_ca_file)
+    if (c.mqtt.tls_ca_file) {
+      // libmosquitto says only "Invalid function arguments provided" for a CA file it cannot read.
+      if (!std::ifstream(*c.mqtt.tls_ca_file))
+        throw ConfigError(c.file.string(), "mqtt.tls_ca_file", "\"" + c.mqtt.tls_ca_file->string() + "\"",
+                          "cannot be read");
       check(mosquitto_tls_set(m_, c.mqtt.tls_ca_file->c_str(), nullptr, nullptr, nullptr, nullptr), "tls_set");
+    }
     const std::string will_topic = c.mqtt.prefix + "/state";
     check(mosquitto_will_set(m_, will_topic.c_str(), static_cast<int>(offline.size()), offline.data(), 1, true),
           "will_set");

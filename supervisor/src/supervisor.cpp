@@ -131,8 +131,15 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
     error_space_ = std::make_unique<ErrorSpace>(config.machine.chain, config.signals.outputs, cancellable_);
   }
   driver_.set_machine({config.machine.chain, {}});
+  // The history's directory must be there: created, a typo in history.db would begin a new history
+  // beside months of learning, without a word.
+  if (const std::filesystem::path dir = config.history.db.parent_path(); !dir.empty()) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec))
+      throw ConfigError(config.file.string(), "history.db", "\"" + config.history.db.string() + "\"",
+                        "its directory '" + dir.string() + "' does not exist (it is not created)");
+  }
   storage::WriterOptions w;
-  w.create_directories = true;
   w.durability = config.history.durability;
   writer_ = std::make_unique<storage::HistoryWriter>(config.history.db, w);
   inbox_ = std::make_unique<Inbox>(config.history.db.string() + ".inbox");
@@ -422,11 +429,15 @@ void Supervisor::drain() {
                                      " s of machine time after the request"
                                : "no result while " + std::to_string(held_.size()) + " samples were held"}});
         outstanding_.reset();
+        after_timeout_ = true;
         continue;
       }
       return;
     }
-    if (held_.empty()) return;
+    if (held_.empty()) {
+      after_timeout_ = false;
+      return;
+    }
     const SampleMessage m = held_.front();
     held_.pop_front();
     feed(m);
@@ -442,10 +453,12 @@ void Supervisor::feed(const SampleMessage& m) {
   const ControllerOutput out = driver_.sample(s);
   if (!out.accepted) return reject("sample", out.reason);
   if (offsets_changed_ || m.time_s >= last_offsets_s_ + 900.0) publish_offsets(m.time_s);
-  // A probe is asked for at the latest sample received, not at one of a backlog being fed after a
-  // timeout: the request's timeout counts from the latest sample, so asking at each sample of the
-  // backlog would hold the rest again and release one sample per timeout.
-  if (!outstanding_ && held_.empty() && m.time_s >= controller_.state().next_probe_due_s) request_probe(m.time_s);
+  // After a timeout the probe is asked for again at the latest sample received, not at a held one of
+  // the backlog: the request's timeout counts from the latest sample, so asking at the first held
+  // sample would hold the rest again and release one sample per timeout. (Held samples after a result
+  // ask at the sample that reaches the due time, as a replay does.)
+  if (!outstanding_ && !(after_timeout_ && !held_.empty()) && m.time_s >= controller_.state().next_probe_due_s)
+    request_probe(m.time_s);
   if (!outstanding_ && held_.empty()) {
     // A consistent point: every inbox entry up to this one is processed.
     next_seq_ = entry_seq_ + 1;
@@ -477,6 +490,7 @@ void Supervisor::prune_history(double now_s) {
 void Supervisor::request_probe(double trigger_s) {
   // Asked now, when the latest sample received is last_received_s_ (later than trigger_s while held
   // samples are fed after a timeout): the timeout counts from then, not from a sample long past.
+  after_timeout_ = false;
   outstanding_ = Outstanding{next_id_++, controller_.state().next_probe_due_s, trigger_s,
                              std::max(trigger_s, last_received_s_), compensation_};
   ++counts_.requests;

@@ -17,6 +17,10 @@
 
 namespace alc::nc::test {
 
+// A machine file's base tables for every work offset, all 0 (given: G10 L2 may write them).
+inline constexpr const char* kAllBases =
+    "[nc.base.G54]\n[nc.base.G55]\n[nc.base.G56]\n[nc.base.G57]\n[nc.base.G58]\n[nc.base.G59]\n";
+
 // Axis offsets with A and C (the A–C table) on work offset `work_offset` (1 = G54).
 inline AxisOffsets offsets(double x, double y, double z, double a, double c, int work_offset = 1) {
   AxisOffsets o;

@@ -738,13 +738,18 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   CHECK(run("--dialect fanuc --in " + (dir / "bad.jsonl").string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("bad.jsonl:1: not a number (field 'minutes')"));
   alc::nc::test::write_text(dir / "big.jsonl", to_json_line(offsets(0.2, 0, 0, 0, 0)) + "\n");
-  CHECK(run("--dialect fanuc --in " + (dir / "big.jsonl").string()) == 1);
+  CHECK(run("--dialect fanuc --in " + (dir / "big.jsonl").string()) == 2);  // no base for G54 (G10 L2)
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("fanuc writes G10 L2") && Contains("[nc.base.G54]"));
+  CHECK(alc::nc::test::read_text(dir / "out").empty());
+  alc::nc::test::write_text(dir / "bases.toml", alc::nc::test::kAllBases);
+  CHECK(run("--dialect fanuc --machine " + (dir / "bases.toml").string() + " --in " + (dir / "big.jsonl").string()) == 1);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("axis X offset 0.2000 mm exceeds max_offset 0.1000 mm"));
   CHECK(alc::nc::test::read_text(dir / "out").empty());
-  alc::nc::test::write_text(dir / "m.toml", "[limits.max_offset]\nx_mm = 0.5\n");
+  alc::nc::test::write_text(dir / "m.toml", std::string("[limits.max_offset]\nx_mm = 0.5\n") + alc::nc::test::kAllBases);
   CHECK(run("--dialect fanuc --machine " + (dir / "m.toml").string() + " --in " + (dir / "big.jsonl").string()) == 1);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("axis X change 0.2000 mm exceeds max_step 0.0100 mm"));
-  alc::nc::test::write_text(dir / "m.toml", "[limits]\non_step_violation = \"split\"\n[limits.max_offset]\nx_mm = 0.5\n");
+  alc::nc::test::write_text(dir / "m.toml", std::string("[limits]\non_step_violation = \"split\"\n[limits.max_offset]\nx_mm = 0.5\n") +
+                                                alc::nc::test::kAllBases);
   CHECK(run("--dialect fanuc --machine " + (dir / "m.toml").string() + " --in " + (dir / "big.jsonl").string()) == 0);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("split into 20 steps"));
   // Paths that are directories (issue 13 item 9): not the defaults, not an empty program.
@@ -753,7 +758,8 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   CHECK(run("--dialect fanuc --in " + dir.string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("--in " + dir.string() + ": not a regular file (a directory)"));
   CHECK(alc::nc::test::read_text(dir / "out").empty());
-  CHECK(run("--dialect fanuc --in-force " + dir.string() + " --in " + (dir / "in.jsonl").string()) == 2);
+  CHECK(run("--dialect fanuc --machine " + (dir / "bases.toml").string() + " --in-force " + dir.string() + " --in " +
+            (dir / "in.jsonl").string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not a regular file (a directory)"));
   std::filesystem::remove_all(dir);
 }
@@ -765,7 +771,7 @@ TEST_CASE("alc nc: a command without a work offset goes to the machine file's [n
                             "{\"type\":\"axis_offsets\",\"x_mm\":0.005,\"y_mm\":0,\"z_mm\":0,\"a_deg\":0,\"c_deg\":0}\n"
                             "{\"type\":\"axis_offsets\",\"x_mm\":0.006,\"y_mm\":0,\"z_mm\":0,\"a_deg\":0,\"c_deg\":0,"
                             "\"work_offset\":\"G57\"}\n");
-  alc::nc::test::write_text(dir / "m.toml", "[nc]\nwork_offset = \"G55\"\n");
+  alc::nc::test::write_text(dir / "m.toml", std::string("[nc]\nwork_offset = \"G55\"\n") + alc::nc::test::kAllBases);
   const std::string cmd = alc + " nc --dialect linuxcnc --machine " + (dir / "m.toml").string() + " --in " +
                           (dir / "in.jsonl").string() + " > " + (dir / "out").string();
   REQUIRE(std::system(cmd.c_str()) == 0);
@@ -780,8 +786,10 @@ TEST_CASE("alc nc: a command without a work offset goes to the machine file's [n
 TEST_CASE("alc nc: --in-force makes max_step count from the offsets in force", "[nc][cli]") {
   const auto dir = alc::nc::test::fresh_dir("cli_in_force");
   const std::string alc = ALC_CLI_PATH;
+  alc::nc::test::write_text(dir / "bases.toml", alc::nc::test::kAllBases);
   const auto run = [&](const std::string& args) {
-    const std::string cmd = alc + " nc " + args + " > " + (dir / "out").string() + " 2> " + (dir / "err").string();
+    const std::string cmd = alc + " nc --machine " + (dir / "bases.toml").string() + " " + args + " > " +
+                            (dir / "out").string() + " 2> " + (dir / "err").string();
     const int status = std::system(cmd.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   };
@@ -825,7 +833,9 @@ TEST_CASE("alc nc: heidenhain judges alternating work offsets against its one da
                                     to_json_line(offsets(-0.009, 0, 0, 0, 0, 2)) + "\n" +
                                     to_json_line(offsets(0.009, 0, 0, 0, 0, 1)) + "\n");
   // G10 L2 keeps G54 and G55 apart: accepted.
-  auto r = alc_test::run_alc("nc --dialect linuxcnc --in " + in, "cli_heidenhain");
+  alc::nc::test::write_text(dir / "bases.toml", alc::nc::test::kAllBases);
+  auto r = alc_test::run_alc("nc --dialect linuxcnc --machine " + (dir / "bases.toml").string() + " --in " + in,
+                             "cli_heidenhain");
   CHECK(r.exit_code == 0);
   CHECK_THAT(r.out, Contains("G21 G10 L2 P2 X-0.0090"));
   // Heidenhain writes all three to the one cycle 7 shift: X would jump by 0.018 mm. Refused, nothing written.
@@ -887,7 +897,8 @@ TEST_CASE("alc nc --sink spool: one whole program file per command as sent", "[n
 
 TEST_CASE("alc nc: a failing sink prints the undelivered commands as JSON lines and exits 1", "[nc][cli][transport]") {
   const auto dir = alc::nc::test::fresh_dir("cli_failing_sink");
-  alc::nc::test::write_text(dir / "split.toml", "[limits]\non_step_violation = \"split\"\n");
+  alc::nc::test::write_text(dir / "split.toml", std::string("[limits]\non_step_violation = \"split\"\n") +
+                                                    alc::nc::test::kAllBases);
   const std::vector<NcCommand> commands{offsets(0.015, -0.002, 0.001, 0.0004, -0.0003, 3), ProbeInterval{5.5, {}},
                                         ProbeInterval{std::nullopt, {}}};
   std::ostringstream jsonl;
@@ -917,7 +928,7 @@ TEST_CASE("alc nc: a failing sink prints the undelivered commands as JSON lines 
       return s.str();
     }());
     std::filesystem::create_directories(missing);
-    const auto again = alc_test::run_alc("nc --dialect fanuc --sink spool --spool-dir " + missing.string() + " --in " +
+    const auto again = alc_test::run_alc("nc --dialect fanuc" + machine + " --sink spool --spool-dir " + missing.string() + " --in " +
                                              (dir / "resend.jsonl").string(),
                                          "cli_failing_sink");
     INFO(again.err);
@@ -973,14 +984,23 @@ TEST_CASE("README: the alc nc example gives the program the README shows", "[nc]
     REQUIRE(close != std::string::npos);
     return readme.substr(open + 4, close - open - 4);
   };
+  const std::string machine = block_after("with `machine.toml`:");
   const std::string commands = block_after("One command per line:");
   const std::string program = block_after("gives with `--dialect linuxcnc`");
   REQUIRE(commands.find("axis_offsets") != std::string::npos);
   const auto dir = alc::nc::test::fresh_dir("readme_example");
   const auto in = (dir / "commands.jsonl").string();
   std::ofstream(in) << commands;
-  const auto r = alc_test::run_alc("nc --dialect linuxcnc --in " + in, "readme_example");
+  std::ofstream(dir / "machine.toml") << machine;
+  const auto r = alc_test::run_alc("nc --dialect linuxcnc --machine " + (dir / "machine.toml").string() + " --in " + in,
+                                   "readme_example");
   INFO(r.err);
   CHECK(r.exit_code == 0);
   CHECK(r.out == program);
+  // Without the base, G10 L2 would set G54 to the compensation alone: refused, nothing written.
+  const auto without = alc_test::run_alc("nc --dialect linuxcnc --in " + in, "readme_example");
+  CHECK(without.exit_code == 2);
+  CHECK(without.out.empty());
+  CHECK_THAT(without.err, Contains("command 1: linuxcnc writes G10 L2, which replaces the whole G54") &&
+                              Contains("[nc.base.G54]") && Contains("give --machine FILE"));
 }

@@ -270,7 +270,16 @@ TEST_CASE("replay NC output: a B-C machine gets b_deg, within the limits, and it
 TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offsets that rs274 applies",
           "[replay][nc][cli][rs274]") {
   const fs::path dir = alc::nc::test::fresh_dir("replay_cli_bc");
+  // A machine file without the base of its work offset: refused for linuxcnc's G10 L2, nothing written
+  // (the program would set the machine's G54 to the compensation alone).
   write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n");
+  const alc_test::CliRun refused = alc_test::run_alc(
+      "replay --case A --nc-out \"" + (dir / "out").string() + "\" --machine \"" + (dir / "bc.toml").string() + "\"",
+      "replay_cli_bc");
+  CHECK(refused.exit_code == 2);
+  CHECK_THAT(refused.err, Catch::Matchers::Contains("bc.toml: linuxcnc writes G10 L2, which replaces the whole G54"));
+  CHECK_FALSE(fs::exists(dir / "out" / "program.ngc"));
+  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\n");
   const alc_test::CliRun run = alc_test::run_alc(
       "replay --case A --nc-out \"" + (dir / "out").string() + "\" --machine \"" + (dir / "bc.toml").string() + "\"",
       "replay_cli_bc");

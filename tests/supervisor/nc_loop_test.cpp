@@ -110,7 +110,8 @@ std::size_t events_of(const Client& c, const std::string& type) {
 
 void SimulatorSetup::configure(const scenarios::Scenario& s, const std::string& machine,
                                const std::string& nc_extra) const {
-  write(dir / "machine.toml", machine);
+  // The simulator's G54 is 0: its base, given (G10 L2 writes base + compensation).
+  write(dir / "machine.toml", machine + "\n[nc.base.G54]\n");
   write(dir / "s.toml", nc_config(s, broker.port, port, nc_extra));
 }
 
@@ -273,7 +274,7 @@ TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the 
   const auto& names = twin_case.truth.error_names;
   const int truth_z = static_cast<int>(std::find(names.begin(), names.end(), "E_Z0T") - names.begin());
   REQUIRE(truth_z < static_cast<int>(names.size()));
-  write(dir / "machine.toml", "");
+  write(dir / "machine.toml", "[nc.base.G54]\n");  // the simulator's G54 is 0
   constexpr double kFeed = 30.0;  // [mm/min]
   // The NC probe cycle measures E_Z0T only: it is the one output (others would never be identified).
   std::string config = nc_config(s, broker.port, port,
@@ -330,11 +331,17 @@ TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the 
 
 namespace {
 
-std::string nc_error_of(const std::string& nc) {
-  const std::string base = "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_Z0T\"]\n"
-                           "[history]\ndb = \"h.sqlite\"\n[nc]\n";
+// The config's [nc] `nc`, with a machine file giving G54's base (`machine`) unless `machine` is empty.
+std::string nc_error_of(const std::string& nc, const std::string& machine = "[nc.base.G54]\nx_mm = -350.0\n") {
+  const fs::path dir = temp_dir("nc-config");
+  std::string base = "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_Z0T\"]\n"
+                     "[history]\ndb = \"h.sqlite\"\n[nc]\n";
+  if (!machine.empty()) {
+    write(dir / "m.toml", machine);
+    base += "machine = \"m.toml\"\n";
+  }
   try {
-    supervisor::parse_supervisor_config(base + nc, "/tmp/s.toml");
+    supervisor::parse_supervisor_config(base + nc, dir / "s.toml");
   } catch (const supervisor::ConfigError& e) {
     return e.what();
   }
@@ -358,11 +365,24 @@ TEST_CASE("nc config: sinks, probe and linuxcncrsh keys are checked with the key
             .find("key 'nc.probe_cycle.output', value \"E_X0C\": only \"E_Z0T\"") != std::string::npos);
   CHECK(nc_error_of("probe = \"linuxcnc\"\n[nc.probe_cycle]\npoint_mm = [1, 2, 3]\nfeed = 3\n")
             .find("key 'nc.probe_cycle.feed', value 3: unknown key") != std::string::npos);
+  // G10 L2 (linuxcnc, fanuc) replaces the whole work offset: without its base in the machine file the
+  // operator's G54 would become the compensation alone. Before, a base of 0 was taken silently.
+  CHECK_THAT(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\n", ""),
+             Catch::Contains("key 'nc.machine': linuxcnc writes G10 L2, which replaces the whole G54") &&
+                 Catch::Contains("give nc.machine"));
+  CHECK_THAT(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\ndialect = \"fanuc\"\n", "[nc.base.G55]\n"),
+             Catch::Contains("key 'nc.machine', value \"m.toml\": fanuc writes G10 L2") &&
+                 Catch::Contains("[nc.base.G54]"));
+  CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\ndialect = \"sinumerik\"\n", "").empty());  // adds to it
+  CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\n", "[nc]\nwork_offset = \"G55\"\n[nc.base.G55]\n").empty());
+  const fs::path dir = temp_dir("nc-config-ok");
+  write(dir / "m.toml", "[nc.base.G54]\n");
   const auto c = supervisor::parse_supervisor_config(
       "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_Z0T\"]\n[history]\ndb = \"h.sqlite\"\n"
-      "[nc]\nsink = \"spool\"\nspool_dir = \"out\"\nprobe = \"linuxcnc\"\nport = 6000\n[nc.probe_cycle]\npoint_mm = [1, 2, -3.5]\n",
-      "/tmp/x/s.toml");
-  CHECK(c.nc.spool_dir == fs::path("/tmp/x/out"));
+      "[nc]\nmachine = \"m.toml\"\nsink = \"spool\"\nspool_dir = \"out\"\nprobe = \"linuxcnc\"\nport = 6000\n"
+      "[nc.probe_cycle]\npoint_mm = [1, 2, -3.5]\n",
+      dir / "s.toml");
+  CHECK(c.nc.spool_dir == dir / "out");
   CHECK(c.nc.linuxcncrsh.port == 6000);
   CHECK(c.nc.probe_cycle.point_mm[2] == -3.5);
   CHECK(c.nc.uses_linuxcncrsh());
@@ -412,7 +432,9 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   const fs::path dir = temp_dir("nc-spool");
   fs::create_directories(dir / "spool");
   const scenarios::Scenario s = case_a(5.0);
-  write(dir / "s.toml", short_cp_config(s, 1) + "[nc]\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
+  write(dir / "machine.toml", "[nc.base.G54]\n");
+  write(dir / "s.toml", short_cp_config(s, 1) +
+                            "[nc]\nmachine = \"machine.toml\"\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
   const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
   RecordingBus bus;
   std::int64_t answered = 0;

@@ -102,6 +102,30 @@ TEST_CASE("a log file that cannot be opened is a configuration error: exit 2 nam
   CHECK_THAT(out, Catch::Contains("key 'log.file'") && Catch::Contains("no_such_dir"));
 }
 
+TEST_CASE("a history.db in a directory that is not there and a tls_ca_file that cannot be read are configuration errors") {
+  const fs::path dir = temp_dir("config-paths");
+  const auto run = [&](const std::string& text) {
+    write(dir / "s.toml", text);
+    const pid_t pid = spawn({ALC_CLI_PATH, "supervise", "--config", (dir / "s.toml").string()}, dir / "out.log");
+    const int code = wait_exit(pid);
+    std::ifstream in(dir / "out.log");
+    return std::make_pair(code, std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
+  };
+  // Before: the directories were created and a new history begun (a typo lost months of learning).
+  std::string typo = config_text();
+  typo.replace(typo.find("db = \"h.sqlite\""), 15, "db = \"histroy/h.sqlite\"");
+  const auto [code, out] = run(typo);
+  CHECK(code == 2);
+  CHECK_THAT(out, Catch::Contains("key 'history.db'") && Catch::Contains("histroy") &&
+                      Catch::Contains("does not exist (it is not created)"));
+  CHECK_FALSE(fs::exists(dir / "histroy"));
+  // Before: "mqtt: tls_set: Invalid function arguments provided.", exit 1 (restarted by its unit).
+  const auto [ca_code, ca_out] = run(config_text("", "tls_ca_file = \"nope.pem\"\n"));
+  CHECK(ca_code == 2);
+  CHECK_THAT(ca_out, Catch::Contains("key 'mqtt.tls_ca_file'") && Catch::Contains("nope.pem") &&
+                         Catch::Contains("cannot be read"));
+}
+
 TEST_CASE("messages are refused with the reason named") {
   const std::vector<std::string> in = {"T_ENV", "T_WS"};
   auto reason = [&](const std::string& p) {

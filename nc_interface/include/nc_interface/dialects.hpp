@@ -33,6 +33,7 @@ struct BaseOffset {
   double a_deg = 0.0; // [°]
   double b_deg = 0.0; // [°]
   double c_deg = 0.0; // [°]
+  bool given = false; // written in the machine file ([nc.base.Gxx]); see missing_base()
 };
 
 struct DialectOptions {
@@ -47,6 +48,11 @@ struct DialectOptions {
 
 // Empty if usable, else which option is out of range (names the option and the value).
 std::string validate(const DialectOptions& options);
+// Empty if `dialect` may write axis offsets to `work_offset` (1 = G54) on a machine, else why not:
+// LinuxCNC and Fanuc write G10 L2, which replaces the whole work offset with base + compensation, so
+// a base that is not given (a default of 0) would set the operator's work offset to the compensation
+// alone (G54 X-350 Z-420 becoming X0.0083 Z0.006). Sinumerik and Heidenhain add to it: always empty.
+std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset);
 // Empty if the command can be written, else what is wrong (field and value).
 std::string validate(const NcCommand& command);
 

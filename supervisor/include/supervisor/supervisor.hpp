@@ -134,6 +134,7 @@ class Supervisor {
   std::optional<Outstanding> outstanding_;
   std::optional<ProbeResultMessage> result_;
   std::deque<SampleMessage> held_;
+  bool after_timeout_ = false;  // feeding the samples held for a probe that timed out (drain)
   double last_received_s_ = -kInf;         // [s] latest accepted sample (fed or held)
   // A sample more than signals.max_gap_s ahead of the latest, with its payload: accepted when the next
   // sample confirms the jump, set aside when it does not (not journaled until then).
