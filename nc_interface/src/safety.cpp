@@ -129,9 +129,15 @@ SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& curr
   const auto now = axes(limits, now_held);
   bool offset_broken = false;
   bool unsplittable = false;  // a change on an axis whose max_step is below the NC resolution
+  // Offsets in force beyond max_offset (given so, e.g. by --in-force): the steps of a split would
+  // start there, beyond max_offset too, so a split is refused (an operator sets them back by hand).
+  std::string in_force_beyond;
   int steps = 1;
   for (std::size_t i = 0; i < want.size(); ++i) {
     const AxisValue& a = want[i];
+    if (std::abs(now[i].value) > a.max_offset && in_force_beyond.empty())
+      in_force_beyond = std::string(" (the offset in force on axis ") + a.axis + ", " + show(now[i].value) +
+                        ", is beyond max_offset " + show(a.max_offset) + ": steps from it would be too)";
     if (std::abs(a.value) > a.max_offset) {
       d.violations.push_back({a.axis, "max_offset", a.value, a.max_offset});
       offset_broken = true;
@@ -151,8 +157,8 @@ SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& curr
   if (d.violations.empty()) {
     d.verdict = SafetyVerdict::Accepted;
     d.to_send = {requested};
-  } else if (!offset_broken && !unsplittable && limits.on_step_violation == StepAction::Split &&
-             steps <= limits.max_split_steps) {
+  } else if (!offset_broken && !unsplittable && in_force_beyond.empty() &&
+             limits.on_step_violation == StepAction::Split && steps <= limits.max_split_steps) {
     d.verdict = SafetyVerdict::Split;
     // Every step as printed, so that each printed change is within max_step; an axis the request
     // leaves out stays out (the NC keeps it).
@@ -172,9 +178,10 @@ SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& curr
   d.message = std::string(verdict_name(d.verdict));
   if (d.verdict == SafetyVerdict::Split) d.message += " into " + std::to_string(d.to_send.size()) + " steps";
   if (d.verdict == SafetyVerdict::Refused && !offset_broken && limits.on_step_violation == StepAction::Split)
-    d.message += unsplittable ? std::string(" (max_step is below the NC resolution 0.0001)")
-                              : " (would need " + std::to_string(steps) + " steps, max_split_steps " +
-                                    std::to_string(limits.max_split_steps) + ")";
+    d.message += unsplittable               ? std::string(" (max_step is below the NC resolution 0.0001)")
+                 : !in_force_beyond.empty() ? in_force_beyond
+                                            : " (would need " + std::to_string(steps) + " steps, max_split_steps " +
+                                                  std::to_string(limits.max_split_steps) + ")";
   for (const LimitViolation& v : d.violations) {
     const char* unit = (v.axis == 'X' || v.axis == 'Y' || v.axis == 'Z') ? " mm" : " deg";
     d.message += std::string("; axis ") + v.axis + (v.limit == "max_offset" ? " offset " : " change ") +

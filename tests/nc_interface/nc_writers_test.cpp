@@ -325,6 +325,17 @@ TEST_CASE("safety: max_step refuses or splits, by configuration", "[nc][safety]"
     CHECK(d.verdict == SafetyVerdict::Refused);
     CHECK_THAT(d.message, Contains("would need 4 steps"));
   }
+  SECTION("no split starts from offsets in force beyond max_offset: its steps would be beyond it too") {
+    limits.on_step_violation = StepAction::Split;
+    limits.max_split_steps = 1000;
+    // In force 0.15 mm (beyond 0.1), asked 0.09: before, 0.14, 0.13, 0.12, 0.11 mm were sent first.
+    const auto d = check_offsets(limits, offsets(0.15, 0, 0, 0, 0), offsets(0.09, 0, 0, 0, 0));
+    CHECK(d.verdict == SafetyVerdict::Refused);
+    CHECK(d.to_send.empty());
+    CHECK_THAT(d.message, Contains("the offset in force on axis X, 0.1500, is beyond max_offset 0.1000"));
+    // Within max_offset it splits as before.
+    CHECK(check_offsets(limits, offsets(0.1, 0, 0, 0, 0), offsets(0.05, 0, 0, 0, 0)).verdict == SafetyVerdict::Split);
+  }
   SECTION("steps count from the offsets in force, per work offset") {
     SafetyGate gate(limits);
     CHECK(gate.submit(offsets(0.01, 0, 0, 0, 0)).verdict == SafetyVerdict::Accepted);
