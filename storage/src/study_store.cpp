@@ -172,7 +172,17 @@ void StudyStore::add(const std::vector<StudyRowRecord>& rows) {
       bind_optional(7, r.p99_angular);
       if (r.ok) st.bind_text(8, r.report_json);
       else st.bind_null(8);
-      st.run();
+      try {
+        st.run();
+      } catch (const StorageError& e) {
+        // This process found the row missing when it began: another one wrote it since (a SLURM task
+        // requeued while the old one still runs, two --resume at once). Said so, not as SQL.
+        if (std::string(e.reason).find("UNIQUE") == std::string::npos) throw;
+        throw StorageError(StorageErrorKind::Locked, db.file(),
+                           "the row of set " + std::to_string(r.set_index) + ", case " + std::to_string(r.case_index) +
+                               " was written by another process meanwhile: two studies write this file at once "
+                               "(e.g. two --resume); this one stops, the file keeps the other's rows");
+      }
     }
     db.exec("COMMIT");
   } catch (...) {

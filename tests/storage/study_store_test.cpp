@@ -36,6 +36,33 @@ TEST_CASE("study store: a study another process began after our look is refused,
   CHECK(StudyStore::header_of(file)->grid_json == R"({"acl-ang":[16]})");
 }
 
+TEST_CASE("study store: two processes continuing one study at once: the second to write a row is told so") {
+  const test::ScratchDir dir;
+  const auto file = dir / "study.sqlite";
+  { const StudyStore begun(file, header(R"({"cp":[6.5]})"), StudyStore::Existing::Refuse); }
+  // Both continue and find no row done; the first writes row (0, 0), then the second tries it too.
+  StudyStore first(file, header(R"({"cp":[6.5]})"), StudyStore::Existing::Continue);
+  StudyStore second(file, header(R"({"cp":[6.5]})"), StudyStore::Existing::Continue);
+  REQUIRE(first.done().empty());
+  REQUIRE(second.done().empty());
+  StudyRowRecord row;
+  row.set_index = 0;
+  row.case_index = 0;
+  row.ok = false;
+  row.error = "x";
+  first.add({row});
+  // Before: "running 'INSERT INTO study_rows (...': record rejected (UNIQUE constraint failed ...)".
+  try {
+    second.add({row});
+    FAIL("the second write of the row was taken");
+  } catch (const StorageError& e) {
+    CHECK(e.kind == StorageErrorKind::Locked);
+    CHECK_THAT(e.what(), Catch::Contains("the row of set 0, case 0 was written by another process meanwhile") &&
+                             Catch::Contains("two studies write this file at once"));
+  }
+  CHECK(first.done().size() == 1);
+}
+
 TEST_CASE("study store: the empty file of a study killed before its first commit holds nothing, a study begins there") {
   const test::ScratchDir dir;
   const auto zero = dir / "zero.sqlite", bare = dir / "bare.sqlite", other = dir / "other.sqlite";
