@@ -111,6 +111,11 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
                     : d == Domain::Order                                 ? (v >= 1.0 && v <= 16.0 && v == std::floor(v))
                                                                          : d == Domain::NonNegative;
     if (!ok) refuse(name, text, values_text(*o));
+    // A length of time below a second is no time the controller can tell from 0 on a clock of seconds
+    // (1e-20 h added to a sample's time leaves it as it was: no probe after CP at all).
+    if ((o->unit == "h" || o->unit == "min") && d != Domain::NonNegative && std::isfinite(v) && v * scale < 1.0)
+      throw std::invalid_argument(std::string(name) + ": '" + std::string(text) + "' " + std::string(o->unit) +
+                                  " is shorter than 1 s, no time the controller can tell from 0");
     return v * scale;
   };
   const auto flag = [&] {

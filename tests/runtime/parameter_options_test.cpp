@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "common/number_text.hpp"
 #include "runtime/parameter_options.hpp"
 
 namespace rt = alc::runtime;
@@ -45,10 +46,10 @@ TEST_CASE("parameter options: each option takes exactly the values of its domain
         taken("0"), taken("2.5"), refused("inf");
         break;
       case rt::Domain::Positive:
-        taken("0.001"), taken("7"), refused("0"), refused("inf");
+        taken("0.02"), taken("7"), refused("0"), refused("inf");
         break;
       case rt::Domain::PositiveOrInf:
-        taken("0.001"), taken("inf"), refused("0");
+        taken("0.02"), taken("inf"), refused("0");
         break;
       case rt::Domain::AtLeastOneOrInf:
         taken("1"), taken("inf"), refused("0.999");
@@ -70,6 +71,14 @@ TEST_CASE("parameter options: each option takes exactly the values of its domain
         taken(says.substr(0, cut)), taken(says.substr(cut + 4)), refused("other");
         break;
       }
+    }
+    // A length of time takes at least 1 s (1e-20 h had left a sample's time as it was: no probe after CP).
+    if ((o.unit == "h" || o.unit == "min") && o.domain != rt::Domain::NonNegative) {
+      const double unit_s = o.unit == "h" ? 3600.0 : 60.0;
+      CHECK(refusal(o, "1e-20") == std::string(o.name) + ": '1e-20' " + std::string(o.unit) +
+                                       " is shorter than 1 s, no time the controller can tell from 0");
+      taken(alc::common::shortest_text(1.0 / unit_s * 1.000001));
+      CHECK_FALSE(refusal(o, alc::common::shortest_text(0.999 / unit_s)).empty());
     }
     ++checked;
   }
