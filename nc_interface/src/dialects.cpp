@@ -192,8 +192,10 @@ std::string validate(const DialectOptions& o) {
   for (std::size_t i = 0; i < o.base.size(); ++i) {
     const BaseOffset& b = o.base[i];
     for (double v : {b.x_mm, b.y_mm, b.z_mm, b.a_deg, b.b_deg, b.c_deg})
-      if (!std::isfinite(v) || std::abs(v) > kMaxNcMagnitude)
-        return "base offset of " + work_offset_name(static_cast<int>(i) + 1) + " must be finite and within ±1e6";
+      if (!std::isfinite(v) || std::abs(v) > kMaxBase)
+        return "base offset of " + work_offset_name(static_cast<int>(i) + 1) +
+               " must be finite and within ±1e5 (with the compensation it must print within ±1e6), got " +
+               common::shortest_text(v);
   }
   return {};
 }

@@ -57,6 +57,10 @@ std::string validate(const SafetyLimits& limits) {
     if (a.max_offset < 1.0 / kNcTicksPerUnit)
       return std::string("max_offset of axis ") + a.axis + " must be at least the NC resolution 0.0001, got " +
              common::shortest_text(a.max_offset);
+    // A thermal compensation of a metre is no limit; bounded, base (±1e5) + offset always prints.
+    if (a.max_offset > kMaxCompensation)
+      return std::string("max_offset of axis ") + a.axis + " must be at most 1000 (mm or deg), got " +
+             common::shortest_text(a.max_offset);
   }
   if (!(limits.step_period_s > 0.0) || !std::isfinite(limits.step_period_s))
     return "step_period_s must be > 0 and finite, got " + common::shortest_text(limits.step_period_s);

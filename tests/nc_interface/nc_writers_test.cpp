@@ -577,6 +577,12 @@ c_deg = 0.002
   CHECK_THAT(error("[kinematics]\ntable_pivot_mm = [0, 0, nan]"), StartsWith("m.toml: key 'kinematics.table_pivot_mm'"));
   CHECK_THAT(error("[kinematics]\nchian = \"A-C\""), StartsWith("m.toml: key 'kinematics.chian': unknown key"));
   CHECK_THAT(error("[nc.base.G60]\nx_mm = 1"), StartsWith("m.toml: key 'nc.base.G60'"));
+  // Bounded so that base + compensation always prints (before: 999999.999 + 0.005 failed at formatting,
+  // after the gate, with a spool half written; max_offset 1e300 was taken).
+  CHECK_THAT(error("[nc.base.G54]\nx_mm = 999999.999"), Contains("base offset of G54 must be finite and within ±1e5") &&
+                                                          Contains("999999.999"));
+  CHECK_THAT(error("[limits.max_offset]\nx_mm = 1e300"), Contains("max_offset of axis X must be at most 1000"));
+  CHECK_NOTHROW(parse_machine_config("[nc.base.G54]\nx_mm = -99999.9999\n[limits.max_offset]\nx_mm = 1000\n", "m.toml"));
   CHECK_THAT(error("[nc\n"), StartsWith("m.toml: ") && Contains("line 1"));
   CHECK_THAT(error("[nc]\nwork_offset = 54"), Contains("not a string") && Contains("'54'"));
 }

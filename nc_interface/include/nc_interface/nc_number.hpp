@@ -11,6 +11,10 @@ enum class SignStyle {
 
 // Largest magnitude accepted [mm] or [°]: beyond this a value is a bug, not an offset.
 inline constexpr double kMaxNcMagnitude = 1e6;
+// A base work offset's bound and a compensation limit's (max_offset, max_step): their sum always
+// prints (G10 L2 writes base + compensation).
+inline constexpr double kMaxBase = 1e5;           // [mm] or [deg]
+inline constexpr double kMaxCompensation = 1000;  // [mm] or [deg]
 
 // Fixed point with exactly four decimals (the NC resolution 0.0001 mm / 0.0001°), never exponent
 // notation, never "-0.0000". Rounding: the shortest decimal text that reads back to the same double
