@@ -1,4 +1,6 @@
 // alc nc: NC commands (JSON lines) in, NC code out, through the safety limits of the machine config.
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -35,7 +37,7 @@ std::vector<nc::AxisOffsets> read_in_force(const std::string& path, int default_
   if (const std::string problem = io::input_file_problem(path); !problem.empty())
     throw UsageError("--in-force " + path + ": " + problem);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw UsageError("--in-force: cannot open " + path);
+  if (!in) throw UsageError("--in-force: cannot open " + path + ": " + std::strerror(errno));
   std::vector<nc::NcCommand> lines;
   try {
     lines = nc::read_commands_jsonl(in, path, default_work_offset);
@@ -76,7 +78,7 @@ void run_nc(const NcArgs& args) {
       if (const std::string problem = io::input_file_problem(args.input); !problem.empty())
         throw UsageError("--in " + args.input + ": " + problem);
       std::ifstream in(args.input, std::ios::binary);
-      if (!in) throw UsageError("cannot open " + args.input);
+      if (!in) throw UsageError("--in: cannot open " + args.input + ": " + std::strerror(errno));
       commands = nc::read_commands_jsonl(in, args.input, config.work_offset);
     }
   } catch (const nc::JsonlError& e) {

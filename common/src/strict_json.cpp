@@ -19,6 +19,9 @@ std::string bare_reason(const std::string& what) {
     if (const auto end = r.find("] "); end != std::string::npos) r.erase(0, end + 2);
   if (r.rfind("parse error", 0) == 0)
     if (const auto colon = r.find(": "); colon != std::string::npos) r.erase(0, colon + 2);
+  // nlohmann quotes the whole token: a 5 MB number would be a 5 MB message.
+  constexpr std::size_t kLongest = 240;
+  if (r.size() > kLongest) r = r.substr(0, kLongest - 80) + "… (" + std::to_string(r.size()) + " characters in all)";
   return r;
 }
 }  // namespace

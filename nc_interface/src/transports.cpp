@@ -308,7 +308,8 @@ DeliveryReport CommandQueue::flush(Sink& sink) {
     try {
       sink.deliver(pending_.front());
     } catch (const std::exception& e) {
-      report.error = sink.name() + ": " + e.what();
+      const std::string what = e.what(), name = sink.name();
+      report.error = what.rfind(name, 0) == 0 ? what : name + ": " + what;  // named once
       alc::log::get("nc")->warn("delivery failed, {} command(s) kept pending: {}", pending_.size(), report.error);
       break;
     }

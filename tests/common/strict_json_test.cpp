@@ -42,3 +42,22 @@ TEST_CASE("strict JSON: a syntax error says the column in the text, without the 
   e = refusal("");
   CHECK(e.column == 1);
 }
+
+TEST_CASE("strict JSON: a huge token is quoted shortened, with its length") {
+  // Before: a 5000-digit number was quoted whole in the message (5 MB for a 5 MB token).
+  const auto e = refusal("{\"a\": " + std::string(5000, '1') + "}");
+  const std::string what = e.what();
+  CHECK(what.size() < 300);
+  CHECK_THAT(what, Catch::StartsWith("number overflow parsing '1111") && Catch::Contains("(5026 characters in all)"));
+}
+
+TEST_CASE("valid_utf8: bytes outside a valid UTF-8 sequence become \\xNN, valid text is kept") {
+  using alc::common::valid_utf8;
+  CHECK(valid_utf8("T_WS °C é ✓ 𝄞") == "T_WS °C é ✓ 𝄞");
+  CHECK(valid_utf8("T_\xE9") == "T_\\xE9");                // Latin-1 é
+  CHECK(valid_utf8("\xFF{}") == "\\xFF{}");
+  CHECK(valid_utf8("\xC0\xAF") == "\\xC0\\xAF");           // overlong '/'
+  CHECK(valid_utf8("\xED\xA0\x80") == "\\xED\\xA0\\x80");  // a surrogate
+  CHECK(valid_utf8("\xE2\x9C") == "\\xE2\\x9C");           // cut short
+  CHECK(valid_utf8("\xF4\x90\x80\x80") == "\\xF4\\x90\\x80\\x80");  // beyond U+10FFFF
+}
