@@ -210,6 +210,7 @@ StatusServer::StatusServer(const StatusConfig& config, const StatusModel& model)
   s.Put(".*", refuse);
   s.Delete(".*", refuse);
   s.Patch(".*", refuse);
+  s.Options(".*", refuse);
   if (!s.bind_to_port(config.host, config.port))
     throw std::runtime_error("status page: cannot listen on " + config.host + ":" + std::to_string(config.port) +
                              " (key status.listen)");

@@ -125,6 +125,17 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
       can = c.converged && c.non_compensable_um_per_m < 1e-3;
     }
     cancellable_.push_back(can);
+    // A typo (E_ZOT for E_Z0T) is predicted and published, but no axis offset ever carries it.
+    if (field < 0 && config.nc.sink != "none")
+      logger()->warn("output {} is not a location error of the C axis (E_X0C, E_Y0C, E_Z0T, E_R0T, E_A0C, E_B0C, "
+                     "E_C0C): it is predicted, never compensated on the NC",
+                     name);
+  }
+  if (config.nc.sink == "spool" && config.nc.spool_dir) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(*config.nc.spool_dir, ec))
+      throw ConfigError(config.file.string(), "nc.spool_dir", "\"" + config.nc.spool_dir->string() + "\"",
+                        "is not a directory (it is not created); before, the first offsets failed to be delivered");
   }
   if (config.nc.sink != "none" || config.nc.probe != "gateway") {
     link_ = std::make_unique<NcLink>(config);

@@ -102,7 +102,7 @@ TEST_CASE("a log file that cannot be opened is a configuration error: exit 2 nam
   CHECK_THAT(out, Catch::Contains("key 'log.file'") && Catch::Contains("no_such_dir"));
 }
 
-TEST_CASE("a history.db in a directory that is not there and a tls_ca_file that cannot be read are configuration errors") {
+TEST_CASE("a history.db or spool_dir in a directory that is not there and a tls_ca_file that cannot be read are configuration errors") {
   const fs::path dir = temp_dir("config-paths");
   const auto run = [&](const std::string& text) {
     write(dir / "s.toml", text);
@@ -124,6 +124,14 @@ TEST_CASE("a history.db in a directory that is not there and a tls_ca_file that 
   CHECK(ca_code == 2);
   CHECK_THAT(ca_out, Catch::Contains("key 'mqtt.tls_ca_file'") && Catch::Contains("nope.pem") &&
                          Catch::Contains("cannot be read"));
+  // A spool directory that is not there: before, found at the first offsets (not delivered).
+  write(dir / "machine.toml", "[nc.base.G54]\n");
+  const auto [spool_code, spool_out] =
+      run(config_text() + "[nc]\nmachine = \"machine.toml\"\nsink = \"spool\"\nspool_dir = \"nospool\"\n");
+  CHECK(spool_code == 2);
+  CHECK_THAT(spool_out, Catch::Contains("key 'nc.spool_dir'") && Catch::Contains("nospool") &&
+                            Catch::Contains("is not a directory"));
+  CHECK_FALSE(fs::exists(dir / "nospool"));
 }
 
 TEST_CASE("messages are refused with the reason named") {
