@@ -45,6 +45,7 @@ nlohmann::json point_json(const Point& p, const StudyInfo& info) {
 }
 
 std::string fmt(double v, int precision = 2) {
+  if (std::isnan(v)) return "-";  // no output of that kind (S16 has no angular one)
   char b[64];
   std::snprintf(b, sizeof b, "%.*f", precision, v);
   return b;
@@ -221,7 +222,7 @@ void print_analysis(std::ostream& os, const Analysis& a, const StudyInfo& info) 
   }
   if (a.paper_set) os << "Seed 004's chosen set in this grid: set " << *a.paper_set << " (" << params(*a.paper_set) << ")\n";
   os << "Pareto front (mean linear P99 against Pd) per case: ";
-  for (const CaseAnalysis& c : a.cases) os << c.name << " " << c.pareto.size() << " sets; ";
+  for (const CaseAnalysis& c : a.cases) os << c.name << " " << c.pareto.size() << (c.pareto.size() == 1 ? " set; " : " sets; ");
   os << "the sets in --json\n";
 }
 
