@@ -282,6 +282,7 @@ void run_study_command(const StudyArgs& a) {
     throw UsageError("--csv " + a.csv + ": " + problem);
   refuse_output_over_input("--csv", a.csv, a.db, "the study database");
   for (const std::string& f : a.files) refuse_output_over_input("--csv", a.csv, f, "a recording the study reads");
+  if (a.grid != "paper") refuse_output_over_input("--csv", a.csv, a.grid, "the grid file");
 
   std::vector<storage::StudyRowRecord> rows;
   std::unique_ptr<storage::StudyStore> store;

@@ -1,6 +1,7 @@
 #include "common/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <cstdio>  // renameat2, RENAME_NOREPLACE (glibc >= 2.28)
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -154,16 +155,35 @@ static bool write_atomically(const std::filesystem::path& path, const std::funct
   if (replace) {
     if (::rename(temporary.c_str(), path.c_str()) != 0)
       failed("cannot rename " + quoted(temporary) + " into place", errno);
-  } else {
-    if (::link(temporary.c_str(), path.c_str()) != 0) {
-      const int error = errno;
-      if (error == EEXIST) {
-        discard();
-        return false;
-      }
-      failed("cannot link " + quoted(temporary) + " into place", error);
-    }
+  } else if (::link(temporary.c_str(), path.c_str()) == 0) {
     ::unlink(temporary.c_str());
+  } else {
+    int error = errno;
+    // A file system without hard links (vfat, exFAT, some FUSE and SMB mounts): a rename that
+    // refuses to replace (Linux's renameat2, RENAME_NOREPLACE); where that is not offered either,
+    // a plain rename after a look, which two writers could race (said in the header).
+    if (error == EPERM || error == EOPNOTSUPP || error == ENOTSUP || error == EMLINK || error == ENOSYS) {
+      if (::renameat2(AT_FDCWD, temporary.c_str(), AT_FDCWD, path.c_str(), RENAME_NOREPLACE) == 0) {
+        sync_directory(path);
+        return true;
+      }
+      error = errno;
+      if (error == EINVAL || error == ENOSYS) {
+        struct stat st {};
+        if (::lstat(path.c_str(), &st) == 0) error = EEXIST;
+        else if (::rename(temporary.c_str(), path.c_str()) == 0) error = 0;
+        else error = errno;
+      }
+      if (error == 0) {
+        sync_directory(path);
+        return true;
+      }
+    }
+    if (error == EEXIST) {
+      discard();
+      return false;
+    }
+    failed("cannot link " + quoted(temporary) + " into place", error);
   }
   sync_directory(path);
   return true;

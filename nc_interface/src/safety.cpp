@@ -61,6 +61,9 @@ std::string validate(const SafetyLimits& limits) {
     if (a.max_offset > kMaxCompensation)
       return std::string("max_offset of axis ") + a.axis + " must be at most 1000 (mm or deg), got " +
              common::shortest_text(a.max_offset);
+    if (a.max_step > kMaxCompensation)
+      return std::string("max_step of axis ") + a.axis + " must be at most 1000 (mm or deg), got " +
+             common::shortest_text(a.max_step);
   }
   if (!(limits.step_period_s > 0.0) || !std::isfinite(limits.step_period_s))
     return "step_period_s must be > 0 and finite, got " + common::shortest_text(limits.step_period_s);

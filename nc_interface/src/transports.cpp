@@ -42,6 +42,11 @@ std::string upper(std::string s) {
 
 }  // namespace
 
+std::string delivery_error(const Sink& sink, const std::exception& error) {
+  const std::string what = error.what(), name = sink.name();
+  return what.rfind(name, 0) == 0 ? what : name + ": " + what;
+}
+
 StreamSink::StreamSink(std::ostream& out, Dialect dialect, DialectOptions options)
     : out_(out), dialect_(dialect), options_(std::move(options)) {}
 
@@ -308,8 +313,7 @@ DeliveryReport CommandQueue::flush(Sink& sink) {
     try {
       sink.deliver(pending_.front());
     } catch (const std::exception& e) {
-      const std::string what = e.what(), name = sink.name();
-      report.error = what.rfind(name, 0) == 0 ? what : name + ": " + what;  // named once
+      report.error = delivery_error(sink, e);
       alc::log::get("nc")->warn("delivery failed, {} command(s) kept pending: {}", pending_.size(), report.error);
       break;
     }

@@ -4,11 +4,14 @@
 #include <cmath>
 #include <fstream>
 #include <set>
+#include <unordered_set>
 #include <sstream>
 #include <toml++/toml.h>
 
 #include "common/input_file.hpp"
 #include "common/number_text.hpp"
+#include "common/toml_text.hpp"
+#include "runtime/toml_option.hpp"
 
 namespace alc::study {
 
@@ -38,28 +41,15 @@ std::string known_keys() {
   return k;
 }
 
-// A TOML value as the text an option takes: numbers in their shortest form, also when written as a
-// string ("6.50" is 6.5, "Inf" is inf: one value, so a duplicate is found and the CSV has one
-// spelling); other strings and booleans as written. Hex, octal and binary integers are refused, as
-// the options refuse "0x10".
+// A TOML value as the text an option takes (runtime::option_text_of), refused with its place.
 std::string text_of(const std::string& file, const std::string& key, const toml::node& node) {
-  if (const auto* i = node.as_integer()) {
-    if (i->flags() != toml::value_flags::none)
-      throw GridError(where(file, node) + ": key '" + key + "', value '" + std::to_string(i->get()) +
-                      "': write it in decimal digits (hex, octal and binary integers are not taken)");
-    return std::to_string(i->get());
+  try {
+    return runtime::option_text_of(key, node);
+  } catch (const std::invalid_argument& e) {
+    const std::string value = common::toml_value_text(&node);
+    throw GridError(where(file, node) + ": key '" + key + "'" + (value.empty() ? "" : ", value '" + value + "'") + ": " +
+                    e.what());
   }
-  if (const auto* f = node.as_floating_point()) return common::shortest_text(f->get());
-  if (const auto* s = node.as_string()) {
-    try {
-      const double v = common::parse_number(key, s->get(), true);
-      return std::isinf(v) ? "inf" : common::shortest_text(v);
-    } catch (const std::invalid_argument&) {
-      return s->get();  // a word (a method, a schedule) or a malformed number: check_value judges it
-    }
-  }
-  if (const auto* b = node.as_boolean()) return b->get() ? "true" : "false";
-  throw GridError(where(file, node) + ": key '" + key + "': a value must be a number, a string or true/false");
 }
 
 // Checks that `text` is a value option `key` takes (alone; combinations are judged per set).
@@ -180,6 +170,26 @@ Grid parse_grid(std::string_view text, const std::string& file) {
   std::stable_sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
     return a.second->source().begin.line < b.second->source().begin.line;
   });
+  // Refused before any value is read: a grid's sets are held in memory (and run), so a product of 20
+  // values on 8 axes (2.56e10 combinations) would grow until the machine runs out, and 2^64 would
+  // wrap to 0; and a million values of one axis take minutes to check.
+  {
+    std::uint64_t count = 1;
+    std::string product;
+    bool beyond = false;
+    for (const auto& [key, node_ptr] : entries) {
+      const toml::array* values = node_ptr->as_array();
+      if (key == "fixed" || !values || values->empty()) continue;
+      product += (product.empty() ? "" : " x ") + std::to_string(values->size()) + " (" + key + ")";
+      if (!beyond && count > kMaxGridSets / values->size()) beyond = true;
+      if (!beyond) count *= values->size();
+    }
+    if (beyond || count > kMaxGridSets)
+      throw GridError(file + ": " + product + " = " +
+                      (beyond ? "more than " + std::to_string(kMaxGridSets) : std::to_string(count)) +
+                      " combinations, more than a study takes (" + std::to_string(kMaxGridSets) +
+                      "); split the grid into several files or list fewer values");
+  }
   for (const auto& [key, node_ptr] : entries) {
     const toml::node& node = *node_ptr;
     const std::string at = where(file, node);
@@ -204,31 +214,17 @@ Grid parse_grid(std::string_view text, const std::string& file) {
     if (values->empty()) throw GridError(at + ": key '" + key + "' has no values");
     if (!keys.insert(key).second) throw GridError(at + ": key '" + key + "' is given twice");
     std::vector<std::string> texts;
+    std::unordered_set<std::string> seen;
     for (const toml::node& v : *values) {
       const std::string vat = where(file, v);
       std::string t = text_of(file, key, v);
       check_value(vat, key, t);
-      if (std::find(texts.begin(), texts.end(), t) != texts.end())
-        throw GridError(vat + ": key '" + key + "', value '" + t + "' is listed twice");
+      if (!seen.insert(t).second) throw GridError(vat + ": key '" + key + "', value '" + t + "' is listed twice");
       texts.push_back(std::move(t));
     }
     g.axes.emplace_back(key, std::move(texts));
   }
   if (g.axes.empty()) throw GridError(file + ": no axis (a key with a list of values)");
-  // Refused before any work: a grid's sets are held in memory (and run), so a product of 20 values on
-  // 8 axes (2.56e10 sets) would grow until the machine runs out, and 2^64 would wrap to 0.
-  std::uint64_t count = 1;
-  std::string product;
-  bool beyond = false;
-  for (const auto& [key, values] : g.axes) {
-    product += (product.empty() ? "" : " x ") + std::to_string(values.size()) + " (" + key + ")";
-    if (!beyond && count > kMaxGridSets / values.size()) beyond = true;
-    if (!beyond) count *= values.size();
-  }
-  if (beyond || count > kMaxGridSets)
-    throw GridError(file + ": " + product + " = " + (beyond ? "more than " + std::to_string(kMaxGridSets) : std::to_string(count)) +
-                    " sets, more than a study takes (" + std::to_string(kMaxGridSets) +
-                    "); split the grid into several files or list fewer values");
   return g;
 }
 

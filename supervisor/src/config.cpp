@@ -7,9 +7,9 @@
 #include <sstream>
 #include <toml++/toml.h>
 
-#include "common/toml_text.hpp"
-
 #include "common/number_text.hpp"
+#include "common/toml_text.hpp"
+#include "runtime/toml_option.hpp"
 
 namespace alc::supervisor {
 
@@ -107,13 +107,13 @@ void read_controller(Section s, SupervisorConfig& c) {
   }
   for (const auto& [k, node] : *s.table()) {
     const std::string key(k.str());
-    std::string text;
-    if (const auto* i = node.as_integer()) text = std::to_string(i->get());
-    else if (const auto* f = node.as_floating_point()) text = common::shortest_text(f->get());
-    else if (const auto* t = node.as_string()) text = t->get();
-    else if (const auto* b = node.as_boolean()) text = b->get() ? "true" : "false";
-    else s.fail(key, "not a number, string or true/false");
     if (!runtime::find_parameter_option(key)) s.fail(key, "not an option of alc replay (see alc replay --help)");
+    std::string text;
+    try {
+      text = runtime::option_text_of(key, node);
+    } catch (const std::invalid_argument& e) {
+      s.fail(key, e.what());
+    }
     AlcParameters p;
     try {
       runtime::set_parameter(p, key, text);

@@ -112,7 +112,7 @@ NcDelivery NcLink::deliver(const std::vector<nc::NcCommand>& commands) {
     try {
       sink_->deliver(c);
     } catch (const std::exception& e) {
-      d.error = sink_->name() + ": " + e.what();
+      d.error = nc::delivery_error(*sink_, e);
       failed(d.error);
       return d;
     }

@@ -44,9 +44,10 @@ class MqttBus : public Bus {
     }
     if (c.mqtt.tls_ca_file) {
       // libmosquitto says only "Invalid function arguments provided" for a CA file it cannot read.
-      if (!std::ifstream(*c.mqtt.tls_ca_file))
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(*c.mqtt.tls_ca_file, ec) || !std::ifstream(*c.mqtt.tls_ca_file))
         throw ConfigError(c.file.string(), "mqtt.tls_ca_file", "\"" + c.mqtt.tls_ca_file->string() + "\"",
-                          "cannot be read");
+                          "cannot be read as a file (a CA certificate in PEM)");
       check(mosquitto_tls_set(m_, c.mqtt.tls_ca_file->c_str(), nullptr, nullptr, nullptr, nullptr), "tls_set");
     }
     const std::string will_topic = c.mqtt.prefix + "/state";

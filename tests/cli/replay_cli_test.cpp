@@ -426,6 +426,9 @@ TEST_CASE("an output file that is the database read or written is refused, and t
            (dir / "." / "a.csv").string() + "\"",
        "is a recording the study reads '" + csv + "' itself"},
       {"replay \"" + csv + "\" --residuals \"" + csv + "\"", "--residuals '" + csv + "' is the recording replayed"},
+      {"study --grid \"" + (dir / "g.toml").string() + "\" \"" + csv + "\" --quiet --csv \"" + (dir / "g.toml").string() +
+           "\"",
+       "is the grid file"},
   };
   for (const auto& [command, says] : over_input) {
     INFO("alc " << command);
@@ -433,6 +436,7 @@ TEST_CASE("an output file that is the database read or written is refused, and t
     CHECK(r.exit_code == 2);
     CHECK_THAT(r.err, Catch::Matchers::Contains(says) && Catch::Matchers::Contains("choose another"));
     CHECK(slurp(csv) == recording);
+    CHECK(slurp(dir / "g.toml") == "cp = [6.5]\n");
   }
   fs::remove_all(dir);
 }

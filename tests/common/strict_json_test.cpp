@@ -51,7 +51,7 @@ TEST_CASE("strict JSON: a huge token is quoted shortened, with its length") {
   CHECK_THAT(what, Catch::StartsWith("number overflow parsing '1111") && Catch::Contains("(5026 characters in all)"));
 }
 
-TEST_CASE("valid_utf8: bytes outside a valid UTF-8 sequence become \\xNN, valid text is kept") {
+TEST_CASE("valid_utf8: bytes outside a valid UTF-8 sequence become hex escapes, valid text is kept") {
   using alc::common::valid_utf8;
   CHECK(valid_utf8("T_WS °C é ✓ 𝄞") == "T_WS °C é ✓ 𝄞");
   CHECK(valid_utf8("T_\xE9") == "T_\\xE9");                // Latin-1 é

@@ -582,6 +582,7 @@ c_deg = 0.002
   CHECK_THAT(error("[nc.base.G54]\nx_mm = 999999.999"), Contains("base offset of G54 must be finite and within ±1e5") &&
                                                           Contains("999999.999"));
   CHECK_THAT(error("[limits.max_offset]\nx_mm = 1e300"), Contains("max_offset of axis X must be at most 1000"));
+  CHECK_THAT(error("[limits.max_step]\nx_mm = 1e300"), Contains("max_step of axis X must be at most 1000"));
   CHECK_NOTHROW(parse_machine_config("[nc.base.G54]\nx_mm = -99999.9999\n[limits.max_offset]\nx_mm = 1000\n", "m.toml"));
   CHECK_THAT(error("[nc\n"), StartsWith("m.toml: ") && Contains("line 1"));
   CHECK_THAT(error("[nc]\nwork_offset = 54"), Contains("not a string") && Contains("'54'"));

@@ -39,6 +39,7 @@ TEST_CASE("parameter options: each option takes exactly the values of its domain
       INFO("value '" << text << "'");
       CHECK(refusal(o, text).empty());
     };
+    const bool duration = o.unit == "h" || o.unit == "min";  // at least 1 s: 0.02 min is 1.2 s
     // Not numbers (or not the NC's numbers): refused in the option's own words, whatever its domain.
     refused("-1"), refused("0x10"), refused("nan"), refused("");
     switch (o.domain) {
@@ -46,10 +47,10 @@ TEST_CASE("parameter options: each option takes exactly the values of its domain
         taken("0"), taken("2.5"), refused("inf");
         break;
       case rt::Domain::Positive:
-        taken("0.02"), taken("7"), refused("0"), refused("inf");
+        taken(duration ? "0.02" : "0.001"), taken("7"), refused("0"), refused("inf");
         break;
       case rt::Domain::PositiveOrInf:
-        taken("0.02"), taken("inf"), refused("0");
+        taken(duration ? "0.02" : "0.001"), taken("inf"), refused("0");
         break;
       case rt::Domain::AtLeastOneOrInf:
         taken("1"), taken("inf"), refused("0.999");
@@ -73,7 +74,7 @@ TEST_CASE("parameter options: each option takes exactly the values of its domain
       }
     }
     // A length of time takes at least 1 s (1e-20 h had left a sample's time as it was: no probe after CP).
-    if ((o.unit == "h" || o.unit == "min") && o.domain != rt::Domain::NonNegative) {
+    if (duration && o.domain != rt::Domain::NonNegative) {
       const double unit_s = o.unit == "h" ? 3600.0 : 60.0;
       CHECK(refusal(o, "1e-20") == std::string(o.name) + ": '1e-20' " + std::string(o.unit) +
                                        " is shorter than 1 s, no time the controller can tell from 0");

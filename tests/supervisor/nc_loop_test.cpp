@@ -499,6 +499,9 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
     if (r.delivered == std::optional<bool>(false)) {
       ++failed;
       CHECK(r.delivery_message.find("not a directory") != std::string::npos);
+      // The sink named once (was "spool DIR: spool DIR: not a directory").
+      CHECK_THAT(r.delivery_message, Catch::Contains("spool " + (dir / "spool").string() + ": not a directory") &&
+                                         !Catch::Contains("spool: spool"));
     }
   }
   CHECK(taken >= 3);

@@ -70,6 +70,14 @@ TEST_CASE("config errors name the file and the key and the value") {
   CHECK(error_of(config_text("", "keepalive_s = 1\n")).find("key 'mqtt.keepalive_s', value 1: not a whole number from 5") != std::string::npos);
   CHECK(error_of(config_text("colour = 1\n")).find("key 'signals.colour', value 1: unknown key") != std::string::npos);
   CHECK(error_of(config_text("", "password_file = \"pw\"\n")).find("needs mqtt.username") != std::string::npos);
+  // [controller] takes its values as a study grid does (one conversion): no hex, a number in a string
+  // is that number. Before, cp = 0x10 was taken as 16 h.
+  std::string hex = config_text();
+  hex.replace(hex.find("cp = 6.5"), 8, "cp = 0x10");
+  CHECK_THAT(error_of(hex), Catch::Contains("key 'controller.cp', value 16: write it in decimal digits"));
+  std::string quoted = config_text();
+  quoted.replace(quoted.find("cp = 6.5"), 8, "cp = \"6.50\"");
+  CHECK(error_of(quoted).empty());
   // The key at fault: machine_id where it makes the topic prefix, mqtt.prefix where that is given.
   std::string id = config_text();
   id.replace(id.find("dmu-1"), 5, "dmu/1#");
@@ -124,6 +132,10 @@ TEST_CASE("a history.db or spool_dir in a directory that is not there and a tls_
   CHECK(ca_code == 2);
   CHECK_THAT(ca_out, Catch::Contains("key 'mqtt.tls_ca_file'") && Catch::Contains("nope.pem") &&
                          Catch::Contains("cannot be read"));
+  // A directory as the CA file (mosquitto's capath is a directory): before, it connected and retried.
+  const auto [cadir_code, cadir_out] = run(config_text("", "tls_ca_file = \"" + dir.string() + "\"\n"));
+  CHECK(cadir_code == 2);
+  CHECK_THAT(cadir_out, Catch::Contains("key 'mqtt.tls_ca_file'") && Catch::Contains("cannot be read as a file"));
   // A spool directory that is not there: before, found at the first offsets (not delivered).
   write(dir / "machine.toml", "[nc.base.G54]\n");
   const auto [spool_code, spool_out] =

@@ -29,7 +29,9 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
 
 // The same, but never over a file: `path` is claimed with link(2), so of two writers of the same new
 // name one wins and the other gets false (its temporary file removed, nothing written); false too if
-// `path` exists already, whatever it is. True when the file is in place.
+// `path` exists already, whatever it is. True when the file is in place. On a file system without
+// hard links (vfat, exFAT, some FUSE and SMB mounts) renameat2(RENAME_NOREPLACE) claims it; where
+// neither is offered, a rename after a look, which two writers at the same instant could race.
 bool write_new_file_atomically(const std::filesystem::path& path, std::string_view text);
 
 }  // namespace alc::io

@@ -28,6 +28,10 @@ class Sink {
   virtual void deliver(const NcCommand& command) = 0;
 };
 
+// What a failed delivery of `sink` says: the sink's name and the error, the name once (a SinkError
+// of the spool names its directory already).
+std::string delivery_error(const Sink& sink, const std::exception& error);
+
 // Writes each command as a program to `out` (e.g. std::cout).
 class StreamSink : public Sink {
  public:
