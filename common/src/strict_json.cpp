@@ -58,35 +58,4 @@ nlohmann::json parse_json_text(std::string_view text) {
   }
 }
 
-std::string valid_utf8(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
-  const auto continuation = [&](std::size_t i) { return i < text.size() && (byte(i) & 0xC0) == 0x80; };
-  for (std::size_t i = 0; i < text.size();) {
-    const unsigned char b = byte(i);
-    std::size_t n = 0;  // length of a well-formed sequence starting at i (RFC 3629: no overlongs, no surrogates)
-    if (b < 0x80) n = 1;
-    else if (b >= 0xC2 && b <= 0xDF && continuation(i + 1)) n = 2;
-    else if (b >= 0xE0 && b <= 0xEF && continuation(i + 1) && continuation(i + 2)) {
-      const unsigned char b1 = byte(i + 1);
-      if (!(b == 0xE0 && b1 < 0xA0) && !(b == 0xED && b1 >= 0xA0)) n = 3;
-    } else if (b >= 0xF0 && b <= 0xF4 && continuation(i + 1) && continuation(i + 2) && continuation(i + 3)) {
-      const unsigned char b1 = byte(i + 1);
-      if (!(b == 0xF0 && b1 < 0x90) && !(b == 0xF4 && b1 >= 0x90)) n = 4;
-    }
-    if (n == 0) {
-      static const char* hex = "0123456789ABCDEF";
-      out += "\\x";
-      out += hex[b >> 4];
-      out += hex[b & 0xF];
-      ++i;
-      continue;
-    }
-    out.append(text.substr(i, n));
-    i += n;
-  }
-  return out;
-}
-
 }  // namespace alc::common

@@ -12,6 +12,7 @@
 
 #include "alc/error_kind.hpp"
 #include "common/atomic_file.hpp"
+#include "common/utf8.hpp"
 #include "common/input_file.hpp"
 #include "common/number_text.hpp"
 
@@ -34,65 +35,11 @@ std::string shorten(const std::string& text, std::size_t max = 60) {
   return text.substr(0, cut) + "…";
 }
 
-// The length of the well-formed UTF-8 sequence at text[i] (1…4), or 0 if it is not one (a stray
-// continuation byte, a truncated or overlong sequence, a surrogate, beyond U+10FFFF).
-std::size_t utf8_length(std::string_view text, std::size_t i) {
-  const auto byte = [&](std::size_t k) { return k < text.size() ? static_cast<unsigned char>(text[k]) : 0u; };
-  const unsigned b0 = byte(i);
-  if (b0 < 0x80) return 1;
-  std::size_t n = 0;
-  unsigned lo = 0x80, hi = 0xBF;  // allowed range of the second byte
-  if (b0 >= 0xC2 && b0 <= 0xDF) n = 2;
-  else if (b0 == 0xE0) n = 3, lo = 0xA0;
-  else if (b0 >= 0xE1 && b0 <= 0xEC) n = 3;
-  else if (b0 == 0xED) n = 3, hi = 0x9F;
-  else if (b0 >= 0xEE && b0 <= 0xEF) n = 3;
-  else if (b0 == 0xF0) n = 4, lo = 0x90;
-  else if (b0 >= 0xF1 && b0 <= 0xF3) n = 4;
-  else if (b0 == 0xF4) n = 4, hi = 0x8F;
-  else return 0;
-  if (byte(i + 1) < lo || byte(i + 1) > hi) return 0;
-  for (std::size_t k = 2; k < n; ++k)
-    if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return 0;
-  return n;
-}
-
-// The byte offset of the first byte that is not well-formed UTF-8, or npos.
-std::size_t invalid_utf8_at(std::string_view text) {
-  for (std::size_t i = 0; i < text.size();) {
-    const std::size_t n = utf8_length(text, i);
-    if (n == 0) return i;
-    i += n;
-  }
-  return std::string_view::npos;
-}
-
-// `text` with every byte that is not well-formed UTF-8, and every control character (a NUL, a stray
-// CR), shown as \xNN: a message prints what the file holds, whole, on one line.
-std::string printable(std::string_view text) {
-  std::string out;
-  for (std::size_t i = 0; i < text.size();) {
-    const std::size_t n = utf8_length(text, i);
-    const auto b0 = static_cast<unsigned char>(text[i]);
-    if (n > 0 && b0 >= 0x20 && b0 != 0x7F) {
-      out.append(text.substr(i, n));
-      i += n;
-    } else {
-      static const char* const kHex = "0123456789ABCDEF";
-      const auto b = static_cast<unsigned char>(text[i++]);
-      out += "\\x";
-      out += kHex[b >> 4];
-      out += kHex[b & 15];
-    }
-  }
-  return out;
-}
-
 std::string compose(const std::string& file, std::size_t line, std::size_t column,
                     const std::string& column_name, const std::string& value, const std::string& reason) {
   std::string s = location_prefix(file, line, column) + ": " + reason;
   if (!column_name.empty()) s += " (column '" + column_name + "')";
-  if (!value.empty() || column > 0) s += ": value '" + printable(shorten(value)) + "'";
+  if (!value.empty() || column > 0) s += ": value '" + common::escaped_utf8(shorten(value), true) + "'";
   return s;
 }
 
@@ -198,10 +145,10 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
     if (name.empty()) throw ScenarioCsvError(source, header_line, c + 1, "", header_text, "empty column name in header");
     // A quote in a name ("T_""a""" is not unescaped): no output of ours could write it back.
     if (name.find('"') != std::string::npos)
-      throw ScenarioCsvError(source, header_line, c + 1, "", printable(name), "column name contains a quote");
+      throw ScenarioCsvError(source, header_line, c + 1, "", common::escaped_utf8(name, true), "column name contains a quote");
     // Names go into JSON (reports, the history's run record): refuse what is not UTF-8 here.
-    if (const std::size_t at = invalid_utf8_at(name); at != std::string::npos)
-      throw ScenarioCsvError(source, header_line, c + 1, "", printable(name),
+    if (const std::size_t at = common::invalid_utf8_at(name); at != std::string::npos)
+      throw ScenarioCsvError(source, header_line, c + 1, "", common::escaped_utf8(name, true),
                              "column name is not UTF-8 (byte " + std::to_string(at + 1) + ")");
     if (!seen.insert(name).second) {
       std::size_t first = 0;

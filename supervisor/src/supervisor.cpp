@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
-#include "common/strict_json.hpp"
+#include "common/utf8.hpp"
 #include "nc_interface/commands.hpp"
 #include "runtime/history_recorder.hpp"
 #include "runtime/nc_emitter.hpp"

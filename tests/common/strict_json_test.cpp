@@ -2,6 +2,7 @@
 #include <string>
 
 #include "common/strict_json.hpp"
+#include "common/utf8.hpp"
 
 using alc::common::JsonTextError;
 using alc::common::parse_json_text;

@@ -25,9 +25,5 @@ struct JsonTextError : std::runtime_error {
 // "duplicate key 'x'").
 nlohmann::json parse_json_text(std::string_view text);
 
-// `text` as a JSON string can carry it: every byte that is not part of a valid UTF-8 sequence becomes
-// the four characters \xNN, so a message that quotes a peer's bytes still names them, and writing it as
-// JSON never throws (nlohmann::json::dump() throws on invalid UTF-8). Valid text comes back as it is.
-std::string valid_utf8(std::string_view text);
 
 }  // namespace alc::common
