@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "common/atomic_file.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/random_processes.hpp"
 #include "scenarios/scenario_csv.hpp"
@@ -121,6 +122,13 @@ void run_simulate(const SimulateArgs& args) {
 
   std::optional<std::uint64_t> seed;
   if (args.seed_given) seed = parse_seed(args.seed);
+  // Both targets judged before either is written: a failed command leaves nothing half done, and
+  // --truth onto --out would replace the scenario with the truth.
+  refuse_output_over_input("--truth", args.truth, args.out, "the --out file");
+  for (const auto& [option, target] : {std::pair{"--out", &args.out}, std::pair{"--truth", &args.truth}})
+    if (!target->empty())
+      if (const std::string problem = io::output_file_problem(*target); !problem.empty())
+        throw std::runtime_error("simulate: cannot write " + std::string(option) + " '" + *target + "': " + problem);
 
   std::vector<sc::SimulatedCase> runs;
   for (const auto& name : names) {

@@ -94,7 +94,15 @@ void sync_directory(const std::filesystem::path& path) {
 std::string not_replaceable(const std::filesystem::path& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) return {};  // a new path (or one the create below reports)
-  if (S_ISREG(st.st_mode)) return {};
+  if (S_ISREG(st.st_mode)) {
+    // A file made read-only (chmod 444) is protected, also from root, whom access() would let write.
+    if ((st.st_mode & 0222) == 0 || ::access(path.c_str(), W_OK) != 0) {
+      char mode[8];
+      std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+      return std::string("a read-only file (mode ") + mode + ")";
+    }
+    return {};
+  }
   if (S_ISLNK(st.st_mode)) return "a symbolic link";
   if (S_ISDIR(st.st_mode)) return "a directory";
   if (S_ISCHR(st.st_mode)) return "a character device";
@@ -103,11 +111,15 @@ std::string not_replaceable(const std::filesystem::path& path) {
   return "a socket or another special file";
 }
 
+std::string replace_advice(const std::string& what) {
+  return what.rfind("a read-only file", 0) == 0 ? "; it is not replaced: make it writable or give another path"
+                                                : ", not a regular file; give a regular file or a new path";
+}
+
 }  // namespace
 
 std::string output_file_problem(const std::filesystem::path& path) {
-  if (const std::string what = not_replaceable(path); !what.empty())
-    return "it is " + what + ", not a regular file; give a regular file or a new path";
+  if (const std::string what = not_replaceable(path); !what.empty()) return "it is " + what + replace_advice(what);
   const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
   struct stat st {};
   if (::stat(dir.c_str(), &st) != 0) return "its directory " + quoted(dir) + " cannot be used: " + std::strerror(errno);
@@ -122,8 +134,7 @@ std::string output_file_problem(const std::filesystem::path& path) {
 static bool write_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write,
                       bool replace) {
   if (const std::string what = not_replaceable(path); replace && !what.empty())
-    throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what +
-                             ", not a regular file; give a regular file or a new path");
+    throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what + replace_advice(what));
   std::filesystem::path temporary;
   int fd = create_temporary(path, temporary);
   // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.
@@ -148,6 +159,9 @@ static bool write_atomically(const std::filesystem::path& path, const std::funct
     }
     if (!out) failed("writing " + quoted(temporary) + " failed", buffer.error() != 0 ? buffer.error() : EIO);
   }
+  // A file replaced keeps its mode (a 0600 history export stays private), a new one gets 0666 & ~umask.
+  if (struct stat st {}; replace && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode))
+    if (::fchmod(fd, st.st_mode & 07777) != 0) failed("chmod of " + quoted(temporary) + " failed", errno);
   if (::fsync(fd) != 0) failed("fsync of " + quoted(temporary) + " failed", errno);
   const int closed = ::close(fd);
   fd = -1;

@@ -130,3 +130,25 @@ TEST_CASE("atomic file: failures name the path and the cause and leave no tempor
   for (const auto& name : names_in(dir)) CHECK(name.find(".tmp") == std::string::npos);
   fs::remove_all(dir);
 }
+
+TEST_CASE("atomic file: a read-only file is not replaced (also for root), a replaced file keeps its mode") {
+  const fs::path dir = fresh_dir("modes");
+  const fs::path kept = dir / "recorded.csv";
+  write_file_atomically(kept, std::string_view("recorded\n"));
+  fs::permissions(kept, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);  // chmod 444
+  // Before: replaced (root's access() allows it; the rename needs only the directory), mode 0644.
+  CHECK_THROWS_WITH(write_file_atomically(kept, std::string_view("other\n")),
+                    Contains("recorded.csv': it is a read-only file (mode 0444); it is not replaced"));
+  CHECK(read_text(kept) == "recorded\n");
+  CHECK_THAT(alc::io::output_file_problem(kept), Contains("read-only file (mode 0444)"));
+  CHECK(names_in(dir) == std::set<std::string>{"recorded.csv"});
+  // A private file stays private when replaced (before: 0600 came back as 0644).
+  const fs::path secret = dir / "export.csv";
+  write_file_atomically(secret, std::string_view("a\n"));
+  fs::permissions(secret, fs::perms::owner_read | fs::perms::owner_write);
+  write_file_atomically(secret, std::string_view("b\n"));
+  CHECK(read_text(secret) == "b\n");
+  CHECK((fs::status(secret).permissions() & fs::perms::all) == (fs::perms::owner_read | fs::perms::owner_write));
+  fs::permissions(kept, fs::perms::owner_all);
+  fs::remove_all(dir);
+}

@@ -163,6 +163,34 @@ TEST_CASE("alc simulate: usage errors go to stderr with exit code 2") {
   CHECK_FALSE(fs::exists("x.csv"));
 }
 
+TEST_CASE("alc simulate: --truth onto --out, a target it may not write: refused before anything is written") {
+  const fs::path dir = work_dir() / "targets";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string out = (dir / "x.csv").string();
+  // Before: exit 0, and x.csv held the truth alone (the scenario written first, then replaced).
+  CliResult r = run_alc("simulate --case A --out " + out + " --truth " + (dir / "." / "x.csv").string());
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("is the --out file"));
+  CHECK_FALSE(fs::exists(out));
+  // Before: a.csv written, then exit 1 on the --truth symlink: half the output left behind.
+  fs::create_symlink(dir / "nowhere", dir / "link.csv");
+  r = run_alc("simulate --case A --out " + (dir / "a.csv").string() + " --truth " + (dir / "link.csv").string());
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("cannot write --truth") && Catch::Matchers::Contains("symbolic link"));
+  CHECK_FALSE(fs::exists(dir / "a.csv"));
+  // A recording made read-only is not replaced (before: replaced, mode 0644, exit 0).
+  REQUIRE(run_alc("simulate --case B --out " + out).exit_code == 0);
+  const std::string recorded = slurp(out);
+  fs::permissions(out, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  r = run_alc("simulate --case A --out " + out);
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("read-only file (mode 0444)"));
+  CHECK(slurp(out) == recorded);
+  fs::permissions(out, fs::perms::owner_all);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("alc simulate --help describes every option") {
   const CliResult r = run_alc("simulate --help");
   REQUIRE(r.exit_code == 0);

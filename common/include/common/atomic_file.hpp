@@ -13,7 +13,8 @@ namespace alc::io {
 // crash nor another writer is touched), flushed and fsync'ed, then renamed over `path`. `path` must
 // be a regular file or a new path: a symbolic link, a directory, a device node, a pipe or a socket
 // is refused before anything is created (the rename would replace it with a regular file; there is
-// no write-through). On any failure the temporary file is removed, `path` is left as it was, and
+// no write-through), and so is a read-only file (no write bit, or not writable by us: also for root,
+// whom a rename would let replace it). A file replaced keeps its mode. On any failure the temporary file is removed, `path` is left as it was, and
 // std::runtime_error says "cannot write 'PATH': " and the cause (no such directory, it is a
 // symbolic link, disk full).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);
