@@ -85,6 +85,20 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
         report.problems.push_back(run + ": finished but has no end time");
     }
   }
+  report_rows(*db, "SELECT run_id, started_unix_s, ended_unix_s FROM runs WHERE ended_unix_s < started_unix_s",
+              "runs: ended before it started (run, started, ended)", report);
+  // A run's samples are one unbroken range of indices (the oldest may be pruned, never one between):
+  // a resume counts them up to its snapshot.
+  report_rows(*db,
+              "SELECT run_id, MIN(sample_index), MAX(sample_index), COUNT(*) FROM input_samples GROUP BY run_id "
+              "HAVING COUNT(*) != MAX(sample_index) - MIN(sample_index) + 1",
+              "input_samples: indices with a gap (run, first, last, rows)", report);
+  report_rows(*db,
+              "SELECT run_id, probe_id, phase, weight FROM probe_measurements "
+              "WHERE phase NOT IN ('CP', 'Post-CP', 'NG') OR NOT (weight >= 0)",
+              "probe_measurements: a phase other than CP, Post-CP, NG or a weight below 0 (run, probe_id, phase, "
+              "weight)",
+              report);
   // Channel indices of every run and kind are 0..n-1.
   report_rows(*db,
               "SELECT run_id, kind FROM run_channels GROUP BY run_id, kind "

@@ -195,6 +195,45 @@ TEST_CASE("a truncated or corrupted file is refused or reported", "[storage]") {
   }
 }
 
+TEST_CASE("db check finds rows edited behind the writer's back that a resume or the report would trip on", "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "edited.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    for (int k = 0; k < 40; ++k) writer.add(test::sample_at(id, k));
+    writer.add(ProbeMeasurementRecord{id, 600.0, "CP", {1.5, 0.5}, {0.0, 0.0}, 1.0});
+    writer.add(ProbeMeasurementRecord{id, 900.0, "CP", {1.5, 0.5}, {0.0, 0.0}, 1.0});
+    writer.end_run(id, RunStatus::Finished);
+  }
+  REQUIRE(check_history(file).ok());
+  {
+    RawDb raw(file);
+    // Before, each of these was "ok" (the first makes --resume refuse: fewer samples than its snapshot counts).
+    raw.exec("DELETE FROM input_samples WHERE sample_index BETWEEN 10 AND 12;"
+             "UPDATE probe_measurements SET phase = 'XX' WHERE time_s = 600;"
+             "UPDATE probe_measurements SET weight = -5 WHERE time_s = 900;"
+             "UPDATE runs SET ended_unix_s = started_unix_s - 10;");
+  }
+  const CheckReport report = check_history(file);
+  std::string all;
+  for (const std::string& p : report.problems) all += p + "\n";
+  INFO(all);
+  CHECK_THAT(all, Catch::Contains("input_samples: indices with a gap (run, first, last, rows): 1 0 39 37"));
+  CHECK_THAT(all, Catch::Contains("a phase other than CP, Post-CP, NG or a weight below 0") && Catch::Contains(" XX ") &&
+                      Catch::Contains(" -5"));
+  CHECK_THAT(all, Catch::Contains("runs: ended before it started"));
+  // Samples pruned from the start (keep_days) are no gap.
+  {
+    RawDb raw(file);
+    raw.exec("INSERT INTO input_samples SELECT run_id, sample_index + 3, time_s, values_f64 FROM input_samples "
+             "WHERE sample_index BETWEEN 7 AND 9; DELETE FROM input_samples WHERE sample_index < 5;");
+  }
+  std::string after;
+  for (const std::string& p : check_history(file).problems) after += p + "\n";
+  CHECK_THAT(after, !Catch::Contains("indices with a gap"));
+}
+
 TEST_CASE("a writer refuses a file with a damaged page before it changes anything", "[storage]") {
   ScratchDir dir;
   const auto file = filled_history(dir, "damaged.sqlite", 3000);
