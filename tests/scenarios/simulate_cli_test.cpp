@@ -155,6 +155,12 @@ TEST_CASE("alc simulate: usage errors go to stderr with exit code 2") {
     CHECK_THAT(r.err, Catch::Matchers::Contains("bogus"));
     CHECK(r.out.empty());
   }
+  SECTION("'-' is not stdout here") {
+    const CliResult r = run_alc("simulate --case A --out -");  // before: a file named '-', exit 0
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("--out writes a file; '-' (stdout) is not offered"));
+    CHECK_FALSE(fs::exists("-"));  // the command runs in the test's working directory
+  }
   SECTION("an option without its value") {
     const CliResult r = run_alc("simulate --out x.csv --case");
     CHECK(r.exit_code == 2);
