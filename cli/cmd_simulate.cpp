@@ -131,7 +131,7 @@ void run_simulate(const SimulateArgs& args) {
   for (const auto& [option, target] : {std::pair{"--out", &args.out}, std::pair{"--truth", &args.truth}})
     if (!target->empty())
       if (const std::string problem = io::output_file_problem(*target); !problem.empty())
-        throw std::runtime_error("simulate: cannot write " + std::string(option) + " '" + *target + "': " + problem);
+        throw std::runtime_error(std::string(option) + ": cannot write '" + *target + "': " + problem);
 
   std::vector<sc::SimulatedCase> runs;
   for (const auto& name : names) {
