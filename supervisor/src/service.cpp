@@ -34,22 +34,37 @@ std::string password_of(const SupervisorConfig& c) {
 class MqttBus : public Bus {
  public:
   MqttBus(const SupervisorConfig& c, const std::string& offline) : c_(c) {
-    mosquitto_lib_init();
-    m_ = mosquitto_new(c.mqtt.client_id.c_str(), /*clean_session=*/false, this);
-    if (!m_) throw std::runtime_error("mqtt: cannot create a client");
-    mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
-    if (c.mqtt.username) {
-      const std::string pw = c.mqtt.password_file ? password_of(c) : std::string();
-      mosquitto_username_pw_set(m_, c.mqtt.username->c_str(), c.mqtt.password_file ? pw.c_str() : nullptr);
-    }
+    // The files of the config first, before there is a client to free on a refusal.
+    const std::string pw = c.mqtt.username && c.mqtt.password_file ? password_of(c) : std::string();
     if (c.mqtt.tls_ca_file) {
       // libmosquitto says only "Invalid function arguments provided" for a CA file it cannot read.
       std::error_code ec;
       if (!std::filesystem::is_regular_file(*c.mqtt.tls_ca_file, ec) || !std::ifstream(*c.mqtt.tls_ca_file))
         throw ConfigError(c.file.string(), "mqtt.tls_ca_file", "\"" + c.mqtt.tls_ca_file->string() + "\"",
                           "cannot be read as a file (a CA certificate in PEM)");
-      check(mosquitto_tls_set(m_, c.mqtt.tls_ca_file->c_str(), nullptr, nullptr, nullptr, nullptr), "tls_set");
     }
+    mosquitto_lib_init();
+    m_ = mosquitto_new(c.mqtt.client_id.c_str(), /*clean_session=*/false, this);
+    if (!m_) {
+      mosquitto_lib_cleanup();
+      throw std::runtime_error("mqtt: cannot create a client");
+    }
+    try {
+      configure(offline, pw);
+    } catch (...) {  // the destructor does not run for a constructor that throws
+      mosquitto_destroy(m_);
+      mosquitto_lib_cleanup();
+      throw;
+    }
+  }
+
+  void configure(const std::string& offline, const std::string& pw) {
+    const SupervisorConfig& c = c_;
+    mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    if (c.mqtt.username)
+      mosquitto_username_pw_set(m_, c.mqtt.username->c_str(), c.mqtt.password_file ? pw.c_str() : nullptr);
+    if (c.mqtt.tls_ca_file)
+      check(mosquitto_tls_set(m_, c.mqtt.tls_ca_file->c_str(), nullptr, nullptr, nullptr, nullptr), "tls_set");
     const std::string will_topic = c.mqtt.prefix + "/state";
     check(mosquitto_will_set(m_, will_topic.c_str(), static_cast<int>(offline.size()), offline.data(), 1, true),
           "will_set");
