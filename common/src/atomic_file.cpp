@@ -88,38 +88,32 @@ void sync_directory(const std::filesystem::path& path) {
   ::close(fd);
 }
 
-// What `path` names if it is there and the rename must not replace it: a symbolic link (the rename
-// would put a regular file in place of the link, not write where it points), a directory, a device
-// node, a pipe, a socket. Empty for a regular file or a new path.
+// Why the rename must not replace `path` (empty for a writable regular file or a new path): "it is"
+// a symbolic link (the rename would put a regular file in place of the link, not write where it
+// points), a directory, a device node, a pipe, a socket, or a read-only file.
 std::string not_replaceable(const std::filesystem::path& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) return {};  // a new path (or one the create below reports)
   if (S_ISREG(st.st_mode)) {
-    // A file made read-only (chmod 444) is protected, also from root, whom access() would let write.
-    if ((st.st_mode & 0222) == 0 || ::access(path.c_str(), W_OK) != 0) {
-      char mode[8];
-      std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
-      return std::string("a read-only file (mode ") + mode + ")";
-    }
-    return {};
+    if (!read_only_file(path)) return {};
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    return std::string("it is a read-only file (mode ") + mode + "); it is not replaced: make it writable or give "
+           "another path";
   }
-  if (S_ISLNK(st.st_mode)) return "a symbolic link";
-  if (S_ISDIR(st.st_mode)) return "a directory";
-  if (S_ISCHR(st.st_mode)) return "a character device";
-  if (S_ISBLK(st.st_mode)) return "a block device";
-  if (S_ISFIFO(st.st_mode)) return "a pipe";
-  return "a socket or another special file";
-}
-
-std::string replace_advice(const std::string& what) {
-  return what.rfind("a read-only file", 0) == 0 ? "; it is not replaced: make it writable or give another path"
-                                                : ", not a regular file; give a regular file or a new path";
+  const char* what = S_ISLNK(st.st_mode)    ? "a symbolic link"
+                     : S_ISDIR(st.st_mode)  ? "a directory"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                     : S_ISFIFO(st.st_mode) ? "a pipe"
+                                            : "a socket or another special file";
+  return std::string("it is ") + what + ", not a regular file; give a regular file or a new path";
 }
 
 }  // namespace
 
 std::string output_file_problem(const std::filesystem::path& path) {
-  if (const std::string what = not_replaceable(path); !what.empty()) return "it is " + what + replace_advice(what);
+  if (std::string why = not_replaceable(path); !why.empty()) return why;
   const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
   struct stat st {};
   if (::stat(dir.c_str(), &st) != 0) return "its directory " + quoted(dir) + " cannot be used: " + std::strerror(errno);
@@ -133,8 +127,8 @@ std::string output_file_problem(const std::filesystem::path& path) {
 // EEXIST if anything holds that name (then false, nothing written).
 static bool write_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write,
                       bool replace) {
-  if (const std::string what = not_replaceable(path); replace && !what.empty())
-    throw std::runtime_error("cannot write " + quoted(path) + ": it is " + what + replace_advice(what));
+  if (const std::string why = not_replaceable(path); replace && !why.empty())
+    throw std::runtime_error("cannot write " + quoted(path) + ": " + why);
   std::filesystem::path temporary;
   int fd = create_temporary(path, temporary);
   // From here on the temporary file is ours: on any failure it goes, and `path` stays as it was.
@@ -214,6 +208,13 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view t
 bool write_new_file_atomically(const std::filesystem::path& path, std::string_view text) {
   return write_atomically(
       path, [text](std::ostream& out) { out.write(text.data(), static_cast<std::streamsize>(text.size())); }, false);
+}
+
+bool read_only_file(const std::filesystem::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  // No write bit at all (chmod 444) protects the file from root too, whom access() lets write.
+  return (st.st_mode & 0222) == 0 || ::access(path.c_str(), W_OK) != 0;
 }
 
 }  // namespace alc::io

@@ -16,6 +16,7 @@
 #include <set>
 #include <thread>
 
+#include "common/atomic_file.hpp"
 #include "common/byte_codec.hpp"
 #include "common/number_text.hpp"
 #include "storage/schema.hpp"
@@ -487,9 +488,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
     if (::access(parent.c_str(), W_OK) != 0)
       throw StorageError(StorageErrorKind::ReadOnly, file,
                          "directory '" + parent.string() + "' is not writable (the WAL journal lives beside the file)");
-    // No write bit at all (chmod 444) protects the file from root too, whom access() lets write.
-    struct stat st {};
-    if (::access(file.c_str(), W_OK) != 0 || (::stat(file.c_str(), &st) == 0 && (st.st_mode & 0222) == 0))
+    if (io::read_only_file(file))
       throw StorageError(StorageErrorKind::ReadOnly, file,
                          "the file is read-only (no write permission for this user); left untouched");
   }

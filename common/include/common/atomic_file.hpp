@@ -19,6 +19,11 @@ namespace alc::io {
 // symbolic link, disk full).
 void write_file_atomically(const std::filesystem::path& path, std::string_view text);
 
+// True for a regular file this process must not replace: no write bit at all (chmod 444, which
+// protects it from root too, whom access() lets write) or no write permission for this user. The
+// one judgement of "read-only" for output files and for the history writer.
+bool read_only_file(const std::filesystem::path& path);
+
 // Why write_file_atomically(path) would fail before it writes anything (for a check before long
 // work whose result goes there): `path` is not replaceable (above), or its directory is missing, not a
 // directory, or not writable. Empty when nothing is known to stand in the way.
