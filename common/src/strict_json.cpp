@@ -3,6 +3,8 @@
 #include <set>
 #include <vector>
 
+#include "common/utf8.hpp"
+
 namespace alc::common {
 
 namespace {
@@ -21,11 +23,7 @@ std::string bare_reason(const std::string& what) {
     if (const auto colon = r.find(": "); colon != std::string::npos) r.erase(0, colon + 2);
   // nlohmann quotes the whole token: a 5 MB number would be a 5 MB message.
   constexpr std::size_t kLongest = 240;
-  if (r.size() > kLongest) {
-    std::size_t cut = kLongest - 80;
-    while (cut > 0 && (static_cast<unsigned char>(r[cut]) & 0xC0) == 0x80) --cut;  // not inside a UTF-8 character
-    r = r.substr(0, cut) + "… (" + std::to_string(r.size()) + " characters in all)";
-  }
+  if (r.size() > kLongest) r = shortened(r, kLongest - 80) + " (" + std::to_string(r.size()) + " characters in all)";
   return r;
 }
 }  // namespace

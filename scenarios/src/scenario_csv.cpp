@@ -27,13 +27,8 @@ std::string location_prefix(const std::string& file, std::size_t line, std::size
   return s;
 }
 
-// At most `max` bytes of `text`, cut at a UTF-8 character boundary, with "…" when cut.
-std::string shorten(const std::string& text, std::size_t max = 60) {
-  if (text.size() <= max) return text;
-  std::size_t cut = max;
-  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
-  return text.substr(0, cut) + "…";
-}
+// A long cell or line quoted in a message: its first 60 bytes.
+std::string shorten(std::string_view text) { return common::shortened(text, 60); }
 
 std::string compose(const std::string& file, std::size_t line, std::size_t column,
                     const std::string& column_name, const std::string& value, const std::string& reason) {

@@ -25,5 +25,4 @@ struct JsonTextError : std::runtime_error {
 // "duplicate key 'x'").
 nlohmann::json parse_json_text(std::string_view text);
 
-
 }  // namespace alc::common

@@ -20,6 +20,10 @@ std::size_t invalid_utf8_at(std::string_view text);
 // throws on invalid UTF-8). Valid text without controls comes back as it is.
 std::string escaped_utf8(std::string_view text, bool controls = false);
 
+// `text` if it is at most `max` bytes, else its first `max` bytes or fewer, cut between two UTF-8
+// characters, with "…" after: a long value quoted in a message.
+std::string shortened(std::string_view text, std::size_t max);
+
 // escaped_utf8(text): text a JSON string can carry.
 inline std::string valid_utf8(std::string_view text) { return escaped_utf8(text, false); }
 
