@@ -379,7 +379,7 @@ void run_merge(const MergeArgs& a) {
       rows.push_back(std::move(r));
     }
   }
-  const study::StudyInfo info = study::StudyInfo::of(*first);
+  const study::StudyInfo info = study::StudyInfo::of(*first, a.shards.front());
   if (rows.size() != info.runs()) {
     for (std::size_t s = 0; s < info.sets.size(); ++s)
       for (std::size_t c = 0; c < info.cases.size(); ++c)
@@ -400,7 +400,7 @@ void run_report(const ReportArgs& a) {
   refuse_output_over_input("--csv", a.csv, a.file, "the study database");
   const auto h = storage::StudyStore::header_of(a.file);
   if (!h) throw UsageError(a.file + ": holds no study");
-  const study::StudyInfo info = study::StudyInfo::of(*h);
+  const study::StudyInfo info = study::StudyInfo::of(*h, a.file);
   const auto rows = sorted(storage::StudyStore::rows_of(a.file));
   if (!a.heatmap_cp.empty() && a.svg.empty()) throw UsageError("--heatmap-cp needs --svg");
   if (std::error_code ec; !a.svg.empty() && fs::exists(a.svg, ec) && !fs::is_directory(a.svg, ec))

@@ -430,7 +430,7 @@ std::string inline_svg(const std::string& document) {
 // The study part: the study's own figures (`alc study report --svg` writes the same SVG): per case
 // the Pareto front of mean linear P99 against Pd over every set, then the heat maps of P99 and Pd.
 void study_section(const std::filesystem::path& file, const storage::StudyHeader& header, Page& page) {
-  const study::StudyInfo info = study::StudyInfo::of(header);
+  const study::StudyInfo info = study::StudyInfo::of(header, file.string());
   const auto rows = storage::StudyStore::rows_of(file);
   const study::Analysis a = study::analyse(info, rows);
   const study::FiguresRendered figures = study::render_figures(info, rows, a, std::nullopt);

@@ -1,4 +1,5 @@
 // `alc db check`: SQLite's own checks, then the project's consistency rules (docs/storage.md).
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -38,6 +39,28 @@ std::string report_json_problem(const std::string& text) {
   if (!j.is_object()) return "is not a JSON object";
   if (!j.contains("outputs") || !j["outputs"].is_object()) return "has no \"outputs\" object";
   if (!j.contains("M") || !j["M"].is_number_integer()) return "has no whole number \"M\"";
+  return {};
+}
+
+std::string study_cases_problem(const std::string& cases_json) {
+  const auto j = nlohmann::json::parse(cases_json, nullptr, false);
+  if (j.is_discarded()) return "does not parse as JSON";
+  if (!j.is_array() || j.empty()) return "is not a non-empty JSON array";
+  for (std::size_t i = 0; i < j.size(); ++i)
+    for (const char* key : {"name", "source", "content_hash"})
+      if (!j[i].is_object() || !j[i].contains(key) || !j[i][key].is_string())
+        return "case " + std::to_string(i) + " has no string \"" + key + "\"";
+  return {};
+}
+
+std::string study_row_problem(std::int64_t set_index, std::int64_t case_index, std::int64_t set_count,
+                              std::int64_t case_count) {
+  if (set_index < 0 || set_index >= set_count)
+    return "set_index " + std::to_string(set_index) + " is not one of the study's " + std::to_string(set_count) +
+           " parameter sets (0 to " + std::to_string(set_count - 1) + ")";
+  if (case_index < 0 || case_index >= case_count)
+    return "case_index " + std::to_string(case_index) + " is not one of the study's " + std::to_string(case_count) +
+           " cases (0 to " + std::to_string(case_count - 1) + ")";
   return {};
 }
 
@@ -157,21 +180,43 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   }
   // A study's file (version 4): its header's JSON and each finished row's indicators.
   if (version >= 4) {
-    Statement studies(*db, "SELECT study_id, grid_json, cases_json FROM studies ORDER BY study_id");
-    while (studies.step())
-      for (const int col : {1, 2})
-        if (!nlohmann::json::accept(studies.column_text(col)))
-          report.problems.push_back("studies: study " + studies.column_text(0) + ": " +
-                                    (col == 1 ? "grid_json" : "cases_json") + " does not parse");
-    Statement rows(*db, "SELECT set_index, case_index, report_json FROM study_rows WHERE status = 'ok' "
+    // Per study its number of sets and of cases (-1: cases_json unusable), which bound its rows' indices.
+    std::map<std::int64_t, std::pair<std::int64_t, std::int64_t>> sizes;
+    Statement studies(*db, "SELECT study_id, grid_json, cases_json, set_count FROM studies ORDER BY study_id");
+    while (studies.step()) {
+      const std::string id = studies.column_text(0);
+      if (!nlohmann::json::accept(studies.column_text(1)))
+        report.problems.push_back("studies: study " + id + ": grid_json does not parse");
+      const std::string cases = studies.column_text(2);
+      const std::string why = study_cases_problem(cases);
+      if (!why.empty()) report.problems.push_back("studies: study " + id + ": cases_json " + why);
+      const std::int64_t set_count = studies.column_int(3);
+      if (set_count < 1)
+        report.problems.push_back("studies: study " + id + ": set_count " + std::to_string(set_count) + " is below 1");
+      sizes[studies.column_int(0)] = {set_count,
+                                      why.empty() ? static_cast<std::int64_t>(nlohmann::json::parse(cases).size()) : -1};
+    }
+    Statement rows(*db, "SELECT study_id, set_index, case_index, status, report_json FROM study_rows "
                         "ORDER BY study_id, set_index, case_index");
     int shown = 0;
-    while (rows.step() && shown < kMaxReported)
-      if (const std::string why = report_json_problem(rows.column_text(2)); !why.empty()) {
-        report.problems.push_back("study_rows: set " + rows.column_text(0) + ", case " + rows.column_text(1) +
-                                  ": report_json " + why);
+    while (rows.step() && shown < kMaxReported) {
+      const std::string row = "study_rows: set " + rows.column_text(1) + ", case " + rows.column_text(2);
+      const auto size = sizes.find(rows.column_int(0));
+      if (size == sizes.end()) {
+        report.problems.push_back(row + ": study_id " + rows.column_text(0) + " names no study");
+        ++shown;
+        continue;
+      }
+      std::string why;
+      if (size->second.second >= 0)
+        why = study_row_problem(rows.column_int(1), rows.column_int(2), size->second.first, size->second.second);
+      if (why.empty() && rows.column_text(3) == "ok")
+        if (why = report_json_problem(rows.column_text(4)); !why.empty()) why = "report_json " + why;
+      if (!why.empty()) {
+        report.problems.push_back(row + ": " + why);
         ++shown;
       }
+    }
   }
   {
     Statement st(*db, std::string("SELECT ") + detail::kSnapshotColumns + " FROM controller_snapshots");

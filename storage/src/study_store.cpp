@@ -35,6 +35,11 @@ std::optional<StudyHeader> read_header(detail::Database& db) {
                                     {"cases_json", &h.cases_json}})
     if (!nlohmann::json::accept(*text))
       throw StorageError(StorageErrorKind::Corrupt, db.file(), std::string("studies: ") + field + " does not parse as JSON");
+  if (const std::string why = study_cases_problem(h.cases_json); !why.empty())
+    throw StorageError(StorageErrorKind::Corrupt, db.file(), "studies: cases_json " + why);
+  if (h.set_count < 1)
+    throw StorageError(StorageErrorKind::Corrupt, db.file(),
+                       "studies: set_count " + std::to_string(h.set_count) + " is below 1");
   return h;
 }
 
@@ -85,6 +90,10 @@ std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
   }
   std::vector<StudyRowRecord> rows;
   if (!db->table_exists("study_rows")) return rows;
+  // The rows' indices name a set of the grid and a case: the analysis indexes both by them.
+  const std::optional<StudyHeader> header = read_header(*db);
+  const std::int64_t cases =
+      header ? static_cast<std::int64_t>(nlohmann::json::parse(header->cases_json).size()) : 0;
   detail::Statement st(*db,
                        "SELECT set_index, case_index, status, error, pd, p99_linear, p99_angular, report_json "
                        "FROM study_rows ORDER BY set_index, case_index");
@@ -98,6 +107,11 @@ std::vector<StudyRowRecord> StudyStore::rows_of(const fs::path& file) {
     r.p99_linear = optional_double(st, 5);
     r.p99_angular = optional_double(st, 6);
     r.report_json = st.is_null(7) ? std::string() : st.column_text(7);
+    if (const std::string why = study_row_problem(r.set_index, r.case_index, header ? header->set_count : 0, cases);
+        !why.empty())
+      throw StorageError(StorageErrorKind::Corrupt, file,
+                         "study_rows: set " + std::to_string(r.set_index) + ", case " + std::to_string(r.case_index) +
+                             ": " + why + "; 'alc db check' lists every such row");
     // The analysis and the CSV read every finished row's document: a damaged one is named here.
     if (r.ok)
       if (const std::string why = report_json_problem(r.report_json); !why.empty())

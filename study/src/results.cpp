@@ -47,13 +47,21 @@ storage::StudyHeader StudyInfo::header() const {
   return h;
 }
 
-StudyInfo StudyInfo::of(const storage::StudyHeader& h) {
+StudyInfo StudyInfo::of(const storage::StudyHeader& h, const std::string& file) {
   StudyInfo info;
-  info.grid = Grid::from_canonical(nlohmann::json::parse(h.grid_json), "stored grid");
-  info.sets = info.grid.sets();
-  for (const auto& c : nlohmann::json::parse(h.cases_json))
-    info.cases.push_back({c.at("name").get<std::string>(), c.at("source").get<std::string>(),
-                          c.at("content_hash").get<std::string>()});
+  try {
+    info.grid = Grid::from_canonical(nlohmann::json::parse(h.grid_json), "stored grid");
+    info.sets = info.grid.sets();
+    for (const auto& c : nlohmann::json::parse(h.cases_json))
+      info.cases.push_back({c.at("name").get<std::string>(), c.at("source").get<std::string>(),
+                            c.at("content_hash").get<std::string>()});
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(file + ": the study's stored grid or cases cannot be read (" + e.what() + ")");
+  }
+  // The rows are indexed by set: a grid that does not give the study's sets would misname every row.
+  if (static_cast<std::int64_t>(info.sets.size()) != h.set_count)
+    throw std::runtime_error(file + ": the study's stored grid gives " + std::to_string(info.sets.size()) +
+                             " parameter sets, its set_count says " + std::to_string(h.set_count));
   info.software_version = h.software_version;
   info.shard = h.shard;
   return info;

@@ -2,6 +2,8 @@
 // lock, and the empty file of a study killed before its first commit holds nothing.
 #include <catch2/catch.hpp>
 
+#include <tuple>
+
 #include "storage/history_tools.hpp"
 #include "storage/storage_error.hpp"
 #include "storage/study_store.hpp"
@@ -13,7 +15,7 @@ namespace {
 StudyHeader header(const std::string& grid, const std::string& shard = "all") {
   StudyHeader h;
   h.grid_json = grid;
-  h.cases_json = R"([{"name":"A"}])";
+  h.cases_json = R"([{"name":"A","source":"built-in A","content_hash":"0"}])";
   h.software_version = "alc test";
   h.shard = shard;
   h.set_count = 2;
@@ -115,4 +117,44 @@ TEST_CASE("study store: a damaged row or header is named with its place, and db 
   CHECK(report_json_problem(R"({"outputs":{},"M":3})").empty());
   CHECK(report_json_problem("garbage") == "does not parse as JSON");
   CHECK(report_json_problem(R"({"outputs":{}})") == "has no whole number \"M\"");
+}
+
+TEST_CASE("study store: a row whose set or case the study does not have is named, not indexed past the grid") {
+  // Before: 'alc report' and 'alc study report' crashed (SIGSEGV) on a row of set 999 of a 10-set study,
+  // threw std::bad_alloc on set -1, and 'alc db check' said ok.
+  const test::ScratchDir dir;
+  const auto file = dir / "study.sqlite";
+  {
+    StudyStore store(file, header(R"({"cp":[6.5,12]})"), StudyStore::Existing::Refuse);
+    StudyRowRecord row;
+    row.ok = false;
+    row.error = "x";
+    store.add({row});
+  }
+  REQUIRE(StudyStore::rows_of(file).size() == 1);
+  REQUIRE(check_history(file).ok());
+  for (const auto& [update, row, why] :
+       {std::tuple{"set_index = 999", "set 999, case 0", "set_index 999 is not one of the study's 2 parameter sets (0 to 1)"},
+        std::tuple{"set_index = -1", "set -1, case 0", "set_index -1 is not one of the study's 2 parameter sets (0 to 1)"},
+        std::tuple{"case_index = 5", "set 0, case 5", "case_index 5 is not one of the study's 1 cases (0 to 0)"}}) {
+    INFO(update);
+    const auto copy = dir / "damaged.sqlite";
+    std::filesystem::copy_file(file, copy, std::filesystem::copy_options::overwrite_existing);
+    REQUIRE(test::RawDb(copy).exec(std::string("UPDATE study_rows SET ") + update) == SQLITE_OK);
+    CHECK_THROWS_WITH(StudyStore::rows_of(copy), Catch::Contains(copy.string()) &&
+                                                     Catch::Contains(std::string("study_rows: ") + row + ": " + why));
+    const CheckReport report = check_history(copy);
+    REQUIRE(report.problems.size() == 1);
+    CHECK(report.problems[0] == std::string("study_rows: ") + row + ": " + why);
+  }
+  // The header's cases and set count bound the rows: they are judged too.
+  REQUIRE(test::RawDb(file).exec("UPDATE studies SET cases_json = '[]'") == SQLITE_OK);
+  CHECK_THROWS_WITH(StudyStore::header_of(file), Catch::Contains("studies: cases_json is not a non-empty JSON array"));
+  CHECK(check_history(file).problems == std::vector<std::string>{"studies: study 1: cases_json is not a non-empty JSON array"});
+  REQUIRE(test::RawDb(file).exec(R"(UPDATE studies SET cases_json = '[{"name":"A"}]', set_count = 0)") == SQLITE_OK);
+  CHECK_THROWS_WITH(StudyStore::header_of(file), Catch::Contains("studies: cases_json case 0 has no string \"source\""));
+  const CheckReport report = check_history(file);
+  CHECK(report.problems == std::vector<std::string>{"studies: study 1: cases_json case 0 has no string \"source\"",
+                                                    "studies: study 1: set_count 0 is below 1"});
+  CHECK(study_row_problem(1, 0, 2, 1).empty());
 }

@@ -110,6 +110,23 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK_THAT(res.err, Catch::Contains(left + " rows reused, " + std::to_string(20 - std::stoi(left)) + " computed"));
     CHECK(slurp(csv3) == text);
   }
+  SECTION("a row of a set the grid does not have: study report and report name it, db check lists it") {
+    // Before: both reports crashed (SIGSEGV, exit 139) indexing the grid's sets by 999; db check said ok.
+    const fs::path damaged = dir() / "damaged.sqlite";
+    fs::remove(damaged);
+    fs::copy_file(db, damaged);
+    sql(damaged, "UPDATE study_rows SET set_index = 999 WHERE set_index = 2 AND case_index = 0");
+    const std::string why = "study_rows: set 999, case 0: set_index 999 is not one of the study's 10 parameter sets";
+    for (const std::string& command : {"study report " + damaged.string(), "report " + damaged.string() + " --out " +
+                                                                                (dir() / "damaged.html").string(),
+                                       "db check " + damaged.string()}) {
+      INFO(command);
+      const auto res = run_alc(command, "study_cli");
+      CHECK(res.exit_code == 1);
+      CHECK_THAT(res.err + res.out, Catch::Contains(damaged.string()) && Catch::Contains(why));
+    }
+    CHECK_FALSE(fs::exists(dir() / "damaged.html"));
+  }
   SECTION("--csv where it cannot be written is refused before any row is computed") {
     const auto res = run_alc("study --grid " + grid.string() + " " + files() + " --csv " +
                                  (dir() / "no_such_dir" / "rows.csv").string(),

@@ -29,6 +29,15 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
 // study_rows.report_json holds, and what the study's analysis and CSV rely on.
 std::string report_json_problem(const std::string& text);
 
+// Why a study's cases_json is not what `alc study` writes (a non-empty array of objects with string
+// "name", "source" and "content_hash"), or "" when it is.
+std::string study_cases_problem(const std::string& cases_json);
+
+// Why a study row's indices do not name a row of its study (set_index in [0, set_count), case_index
+// in [0, case_count)), or "": a row outside them would index past the grid or the cases.
+std::string study_row_problem(std::int64_t set_index, std::int64_t case_index, std::int64_t set_count,
+                              std::int64_t case_count);
+
 // Tables `alc db export` accepts (the fixed list; nothing else reaches SQL).
 const std::vector<std::string>& exportable_tables();
 

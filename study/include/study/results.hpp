@@ -25,7 +25,8 @@ struct StudyInfo {
   std::string shard = "all";        // "I/N" or "all"
 
   storage::StudyHeader header() const;
-  static StudyInfo of(const storage::StudyHeader& header);
+  // The study a file holds; `file` names it in the error when the stored grid or cases cannot be read.
+  static StudyInfo of(const storage::StudyHeader& header, const std::string& file);
   std::size_t runs() const { return sets.size() * cases.size(); }
 };
 
