@@ -110,12 +110,23 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   }
   report_rows(*db, "SELECT run_id, started_unix_s, ended_unix_s FROM runs WHERE ended_unix_s < started_unix_s",
               "runs: ended before it started (run, started, ended)", report);
-  // A run's samples are one unbroken range of indices (the oldest may be pruned, never one between):
-  // a resume counts them up to its snapshot.
+  // Every accepted sample is stored with its prediction (one cycle), and a resume pairs them up to its
+  // snapshot: a sample or a prediction missing there makes it refuse. Not a gap in the indices: a sample
+  // the controller rejected (an input beyond its plausible limit) has an index and no row. Rows after
+  // the latest snapshot are not judged: a kill may part a sample from its prediction there, and the
+  // resume redoes them. A run that stores no prediction at all (written through the writer's API by
+  // another program) has nothing to pair.
   report_rows(*db,
-              "SELECT run_id, MIN(sample_index), MAX(sample_index), COUNT(*) FROM input_samples GROUP BY run_id "
-              "HAVING COUNT(*) != MAX(sample_index) - MIN(sample_index) + 1",
-              "input_samples: indices with a gap (run, first, last, rows)", report);
+              "SELECT run_id, t, samples, predictions FROM ("
+              " SELECT c.run_id, c.time_s AS t,"
+              "  (SELECT COUNT(*) FROM input_samples s WHERE s.run_id = c.run_id AND s.time_s <= c.time_s) AS samples,"
+              "  (SELECT COUNT(*) FROM predictions p WHERE p.run_id = c.run_id AND p.time_s <= c.time_s) AS predictions"
+              " FROM controller_snapshots c WHERE c.next_sample_index > 0 AND c.snapshot_id ="
+              "  (SELECT MAX(snapshot_id) FROM controller_snapshots d WHERE d.run_id = c.run_id)"
+              ") x WHERE samples != predictions AND EXISTS (SELECT 1 FROM predictions q WHERE q.run_id = x.run_id)",
+              "input_samples: samples and predictions up to the latest snapshot differ in number (run, snapshot "
+              "time_s, samples, predictions)",
+              report);
   report_rows(*db,
               "SELECT run_id, probe_id, phase, weight FROM probe_measurements "
               "WHERE phase NOT IN ('CP', 'Post-CP', 'NG') OR NOT (weight >= 0)",

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <unordered_map>
@@ -443,7 +444,9 @@ ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
                        "run " + std::to_string(run) + " has no usable controller snapshot to resume from: " + all);
   }
   ResumePoint point{std::move(runs.front()), std::move(*chosen), std::move(skipped)};
-  const double t = point.snapshot.time_s;
+  // The snapshot before the first sample (next_sample_index 0, sentinel time) keeps nothing of the run.
+  const double t = point.snapshot.next_sample_index == 0 ? -std::numeric_limits<double>::infinity()
+                                                         : point.snapshot.time_s;
   m.insert([&] {
     // Everything after the snapshot is redone by the resumed run; table names are fixed text.
     for (const char* table : {"probe_measurements", "predictions", "model_parameter_sets", "phase_changes",
@@ -455,8 +458,9 @@ ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
     samples.bind(1, run).bind(2, point.snapshot.next_sample_index).bind(3, t).run();
     Statement indicators(*m.db, "DELETE FROM run_indicators WHERE run_id = ?1");  // of the run's earlier end
     indicators.bind(1, run).run();
-    Statement later(*m.db, "DELETE FROM controller_snapshots WHERE run_id = ?1 AND (time_s > ?2 OR snapshot_id > ?3)");
-    later.bind(1, run).bind(2, t).bind(3, point.snapshot.snapshot_id).run();
+    // Snapshots in the order written (the snapshot before the first sample has a sentinel time).
+    Statement later(*m.db, "DELETE FROM controller_snapshots WHERE run_id = ?1 AND snapshot_id > ?2");
+    later.bind(1, run).bind(2, point.snapshot.snapshot_id).run();
     Statement status(*m.db, "UPDATE runs SET status = 'running', ended_unix_s = NULL WHERE run_id = ?1");
     status.bind(1, run).run();
   });

@@ -45,9 +45,12 @@ ControllerSnapshot read_snapshot(Statement& st) {
   return s;
 }
 
+// In the order they were written (snapshot_id), which is the run's order: the snapshot before the first
+// sample carries the sentinel time kSnapshotBeforeStart_s (-1 s), which is later than every sample of a
+// recording with negative times; ordered by time it was taken for the latest and a resume lost the run.
 std::vector<ControllerSnapshot> query_snapshots(Database& db, RunId run, bool latest_only) {
   Statement st(db, std::string("SELECT ") + kSnapshotColumns + " FROM controller_snapshots WHERE run_id = ?1 ORDER BY " +
-                       (latest_only ? "time_s DESC, snapshot_id DESC LIMIT 1" : "time_s, snapshot_id"));
+                       (latest_only ? "snapshot_id DESC LIMIT 1" : "snapshot_id"));
   st.bind(1, run);
   std::vector<ControllerSnapshot> snapshots;
   while (st.step()) snapshots.push_back(read_snapshot(st));

@@ -201,7 +201,13 @@ TEST_CASE("db check finds rows edited behind the writer's back that a resume or 
   {
     HistoryWriter writer(file);
     const RunId id = writer.begin_run(test::small_run());
-    for (int k = 0; k < 40; ++k) writer.add(test::sample_at(id, k));
+    for (int k = 0; k < 40; ++k) {
+      if (k == 20) continue;  // a sample the controller rejected: an index without a row, no damage
+      const InputSampleRecord sample = test::sample_at(id, k);
+      writer.add(sample);
+      writer.add(PredictionRecord{id, sample.time_s, {0.0, 0.0}, {0.0, 0.0}});
+    }
+    writer.save_snapshot({id, test::sample_at(id, 35).time_s, 36, "test/1", true, "{}"});
     writer.add(ProbeMeasurementRecord{id, 600.0, "CP", {1.5, 0.5}, {0.0, 0.0}, 1.0});
     writer.add(ProbeMeasurementRecord{id, 900.0, "CP", {1.5, 0.5}, {0.0, 0.0}, 1.0});
     writer.end_run(id, RunStatus::Finished);
@@ -209,7 +215,7 @@ TEST_CASE("db check finds rows edited behind the writer's back that a resume or 
   REQUIRE(check_history(file).ok());
   {
     RawDb raw(file);
-    // Before, each of these was "ok" (the first makes --resume refuse: fewer samples than its snapshot counts).
+    // Before, each of these was "ok" (the first makes --resume refuse: fewer samples than predictions).
     raw.exec("DELETE FROM input_samples WHERE sample_index BETWEEN 10 AND 12;"
              "UPDATE probe_measurements SET phase = 'XX' WHERE time_s = 600;"
              "UPDATE probe_measurements SET weight = -5 WHERE time_s = 900;"
@@ -219,19 +225,21 @@ TEST_CASE("db check finds rows edited behind the writer's back that a resume or 
   std::string all;
   for (const std::string& p : report.problems) all += p + "\n";
   INFO(all);
-  CHECK_THAT(all, Catch::Contains("input_samples: indices with a gap (run, first, last, rows): 1 0 39 37"));
+  CHECK_THAT(all, Catch::Contains("input_samples: samples and predictions up to the latest snapshot differ in number "
+                                  "(run, snapshot time_s, samples, predictions): 1 2100.0 32 35"));
   CHECK_THAT(all, Catch::Contains("a phase other than CP, Post-CP, NG or a weight below 0") && Catch::Contains(" XX ") &&
                       Catch::Contains(" -5"));
   CHECK_THAT(all, Catch::Contains("runs: ended before it started"));
-  // Samples pruned from the start (keep_days) are no gap.
+  // Samples pruned from the start (keep_days) go with their predictions; rows after the snapshot are not
+  // judged (a kill may part them there).
   {
     RawDb raw(file);
-    raw.exec("INSERT INTO input_samples SELECT run_id, sample_index + 3, time_s, values_f64 FROM input_samples "
-             "WHERE sample_index BETWEEN 7 AND 9; DELETE FROM input_samples WHERE sample_index < 5;");
+    raw.exec("DELETE FROM predictions WHERE time_s BETWEEN 600 AND 720; DELETE FROM input_samples WHERE time_s < 300;"
+             "DELETE FROM predictions WHERE time_s < 300; DELETE FROM predictions WHERE time_s > 2100;");
   }
   std::string after;
   for (const std::string& p : check_history(file).problems) after += p + "\n";
-  CHECK_THAT(after, !Catch::Contains("indices with a gap"));
+  CHECK_THAT(after, !Catch::Contains("samples and predictions"));
 }
 
 TEST_CASE("a writer refuses a file with a damaged page before it changes anything", "[storage]") {
@@ -629,7 +637,7 @@ TEST_CASE("a version-4 database is migrated to version 5: its runs kept, no indi
               "INSERT INTO runs VALUES (1, 'case A', '{}', 'alc 0.1.0', 1.7e9, 1.7e9, 'finished');"
               "INSERT INTO run_channels VALUES (1, 'input', 0, 'T_ENV'), (1, 'output', 0, 'E_X0C');"
               "INSERT INTO input_samples VALUES (1, 0, 0.0, X'0000000000003440');"
-              "INSERT INTO studies VALUES (1, '{}', '[]', 'alc 0.1.0', '1/1', 2, 1.7e9);");
+              "INSERT INTO studies VALUES (1, '{}', '[{\"name\":\"A\",\"source\":\"A\",\"content_hash\":\"0\"}]', 'alc 0.1.0', '1/1', 2, 1.7e9);");
   {
     // A reader takes the file as it is: no indicators table, none stored, an export of the header only.
     const HistoryReader reader(file);
