@@ -1,4 +1,4 @@
-// Thermal model <-> JSON, exact for every double: finite values as shortest round-trip numbers
+// Thermal model <-> JSON (every field of the model, the clamp of its predictions included), exact for every double: finite values as shortest round-trip numbers
 // (nlohmann prints them so), non-finite ones as the strings "nan", "inf", "-inf".
 #include "storage/model_json.hpp"
 
@@ -51,7 +51,8 @@ std::string thermal_model_to_json(const alc::ThermalModel& model) {
   j["outputs"] = json::array();
   for (const auto& o : model.outputs)
     j["outputs"].push_back({{"name", o.name}, {"order", o.order}, {"inputs", o.inputs},
-                            {"parameters", vector(o.parameters)}, {"poles", vector(o.poles)}});
+                            {"parameters", vector(o.parameters)}, {"poles", vector(o.poles)},
+                            {"output_limit", number(o.output_limit)}});
   return j.dump();
 }
 
@@ -69,6 +70,9 @@ alc::ThermalModel thermal_model_from_json(const std::string& text) {
       out.inputs = o.at("inputs").get<std::vector<int>>();
       out.parameters = vector_from(o.at("parameters"));
       out.poles = vector_from(o.at("poles"));
+      // The clamp of the predictions is part of the model: without it a resumed run predicted unclamped
+      // where the uninterrupted one clamped. Files written before it was stored have none (no bound).
+      if (o.contains("output_limit")) out.output_limit = number_from(o.at("output_limit"));
       model.outputs.push_back(std::move(out));
     }
     return model;

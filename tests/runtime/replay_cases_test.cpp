@@ -129,6 +129,30 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
   }
 }
 
+TEST_CASE("load case A with a 10 h window: a resumed run clamps its predictions as the uninterrupted one") {
+  // With a short window the model of E_Y0C runs into its output limit from 77.95 h on. The limit was not
+  // part of the stored model: resumed at 77 h, the prediction ran on unclamped (46.8 ... 52.6 against
+  // 45.788 µm) until the next fit, and RMSE and SMAPE differed.
+  const auto simulated = simulate_case("A");
+  AlcParameters p;
+  p.learning_window_s = 10.0 * 3600.0;
+  Replay uninterrupted(simulated.scenario, in_memory(p));
+  uninterrupted.run();
+  const ReplayReport whole = uninterrupted.report();
+  const auto second = stopped_and_resumed(simulated.scenario, p, "cases-A-window", 77.0);
+  const ReplayReport r = second->report();
+  const auto& a = uninterrupted.controller().state().predictor.model().outputs;
+  const auto& b = second->controller().state().predictor.model().outputs;
+  REQUIRE(a.size() == b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) CHECK(b[k].output_limit == a[k].output_limit);
+  for (std::size_t k = 0; k < r.outputs.size(); ++k) {
+    INFO(r.outputs[k].name);
+    CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
+    CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
+    CHECK(r.outputs[k].SMAPE == whole.outputs[k].SMAPE);
+  }
+}
+
 TEST_CASE("load case A with CP prolonged (learning since 10 h): the baseline of a resumed run is the uninterrupted one's") {
   // CP cannot end before probes from 10 h on allow a fit: it ends on a probe cycle, not at 6.5 h. The
   // baseline is fitted in that cycle; before, the uninterrupted run evaluated that probe's row with a

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "storage/history_reader.hpp"
@@ -408,6 +409,7 @@ TEST_CASE("thermal model JSON is exact and the parameter-set record summarises t
   out.parameters = Eigen::VectorXd(3);
   out.parameters << 1.0 / 3.0, -2.5e-17, kNaN;
   out.poles = Eigen::VectorXd::Constant(1, kInf);
+  out.output_limit = 45.78812345678901;
   fit.model.outputs.push_back(out);
   alc::OutputFitSummary summary;
   summary.name = "E_X0C";
@@ -424,6 +426,11 @@ TEST_CASE("thermal model JSON is exact and the parameter-set record summarises t
   CHECK(back.outputs[0].parameters[1] == -2.5e-17);
   CHECK(std::isnan(back.outputs[0].parameters[2]));
   CHECK(back.outputs[0].poles[0] == kInf);
+  // The clamp too (before it was lost, and a resumed run predicted unclamped where the whole one clamped).
+  CHECK(back.outputs[0].output_limit == out.output_limit);
+  auto without = nlohmann::json::parse(thermal_model_to_json(fit.model));
+  without["outputs"][0].erase("output_limit");  // a file written before the clamp was stored: no bound
+  CHECK(thermal_model_from_json(without.dump()).outputs[0].output_limit == kInf);
 
   const auto record = make_model_parameter_set(1, 100.0, "end of CP", 0.0, 100.0, fit, true);
   CHECK(record.order == 2);
