@@ -188,11 +188,13 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, run
 // More of the run's identity than the parameters (which are stored as parsed values): what the
 // parameters do not say but the results depend on, the data included (scenarios::content_hash: a
 // --resume with another recording under the same file name is refused).
-nlohmann::json identity_of(const ReplayArgs& a, const scenarios::Scenario& scenario) {
+nlohmann::json identity_of(const ReplayArgs& a, const scenarios::Scenario& scenario, const nc::MachineConfig& machine) {
   nlohmann::json j = nlohmann::json::object();
   j["scenario_hash"] = scenarios::content_hash(scenario);
   if (a.seed_given) j["seed"] = a.seed;
-  if (!a.machine.empty()) j["machine"] = a.machine;  // its chain gives the stored offsets: --resume must repeat it
+  // Its chain gives the stored offsets: --resume must repeat the machine, by content (the same file by
+  // another path is the same machine; the file edited is another one).
+  if (!a.machine.empty()) j["machine_hash"] = machine.content_hash;
   return j;
 }
 
@@ -357,7 +359,7 @@ void run_replay(const ReplayArgs& a) {
     runtime::ReplayOptions o;
     o.parameters = params;
     o.source = source_of(name);
-    o.identity = identity_of(a, scenario);
+    o.identity = identity_of(a, scenario, machine);
     return o;
   };
   // --resume of several cases (--case all after a kill): per case, its unfinished run is resumed, a

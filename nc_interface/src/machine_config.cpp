@@ -1,5 +1,6 @@
 #include "nc_interface/machine_config.hpp"
 
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -7,6 +8,7 @@
 
 #include "common/toml_text.hpp"
 
+#include "common/byte_codec.hpp"
 #include "common/input_file.hpp"
 
 namespace alc::nc {
@@ -206,7 +208,11 @@ MachineConfig read_machine_config(const std::filesystem::path& path) {
   if (!in) throw ConfigError(path.string(), "", "", "cannot open the file");
   std::ostringstream text;
   text << in.rdbuf();
-  return parse_machine_config(text.str(), path.string());
+  MachineConfig config = parse_machine_config(text.str(), path.string());
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(common::checksum64(text.str())));
+  config.content_hash = hex;
+  return config;
 }
 
 }  // namespace alc::nc

@@ -341,7 +341,15 @@ TEST_CASE("replay: --machine with --db alone gives the chain of the stored offse
   r = run("replay --case A --resume" + db);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("other parameters") != std::string::npos);
+  // The machine is its content: the file edited is another machine (before, only the path text was
+  // compared, so the edited geometry was taken and one run held offsets of two machines) ...
+  write_text(dir / "bc.toml", "[kinematics]\nchain = \"A-C\"\n");
   r = run("replay --case A --resume" + db + machine);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("/machine_hash: stored \"") != std::string::npos);
+  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n");
+  // ... and the same file by another path is the same machine (before: refused, stored "…/bc.toml").
+  r = run("replay --case A --resume" + db + " --machine \"" + (dir / "." / "bc.toml").string() + "\"");
   INFO(r.err);
   REQUIRE(r.exit_code == 0);
 

@@ -42,6 +42,9 @@ struct MachineConfig {
   int work_offset = 1;  // 1 = G54 … 6 = G59, target of the axis offsets
   DialectOptions nc;
   SafetyLimits limits;
+  // FNV-1a 64 of the file's bytes as 16 hex digits (read_machine_config; "" when parsed from text):
+  // what identifies the machine of a stored run, not the path it was given by.
+  std::string content_hash;
 };
 
 // A config that cannot be used. The message reads `FILE: key 'KEY': reason: value 'VALUE'`.
