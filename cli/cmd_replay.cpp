@@ -267,7 +267,7 @@ std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std
     if (!indicators)
       throw UsageError(db + ": the finished run " + std::to_string(latest->run_id) + " of '" + source +
                        "' has no stored indicators to show");
-    stored[k] = runtime::report_from_json(nlohmann::json::parse(indicators->report_json));
+    stored[k] = runtime::report_from_json(nlohmann::json::parse(indicators->report_json), latest->output_names);
     plans.push_back(ResumePlan::Stored);
   }
   if (!any_run) throw UsageError(db + ": no run of these cases to resume");

@@ -1,5 +1,6 @@
 #include "runtime/report_json.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -21,7 +22,7 @@ nlohmann::json outputs_json(const std::vector<OutputIndicators>& outs) {
   return j;
 }
 
-std::vector<OutputIndicators> outputs_of(const nlohmann::json& j) {
+std::vector<OutputIndicators> outputs_of(const nlohmann::json& j, const std::vector<std::string>& order) {
   std::vector<OutputIndicators> outs;
   for (const auto& [name, o] : j.items()) {
     OutputIndicators r;
@@ -35,6 +36,10 @@ std::vector<OutputIndicators> outputs_of(const nlohmann::json& j) {
     r.measurements = o.at("measurements").get<int>();
     outs.push_back(std::move(r));
   }
+  const auto rank = [&](const OutputIndicators& o) {
+    return static_cast<std::size_t>(std::find(order.begin(), order.end(), o.name) - order.begin());
+  };
+  std::stable_sort(outs.begin(), outs.end(), [&](const auto& a, const auto& b) { return rank(a) < rank(b); });
   return outs;
 }
 
@@ -61,15 +66,15 @@ nlohmann::json report_json(const ReplayReport& r) {
   return j;
 }
 
-ReplayReport report_from_json(const nlohmann::json& j) {
+ReplayReport report_from_json(const nlohmann::json& j, const std::vector<std::string>& output_order) {
   ReplayReport r;
-  r.outputs = outputs_of(j.at("outputs"));
-  r.baseline = outputs_of(j.at("baseline").at("outputs"));
+  r.outputs = outputs_of(j.at("outputs"), output_order);
+  r.baseline = outputs_of(j.at("baseline").at("outputs"), output_order);
   if (j.contains("baselines"))
     for (const auto& [name, e] : j.at("baselines").items()) {
       BaselineReport b;
       b.name = name;
-      b.outputs = outputs_of(e.at("outputs"));
+      b.outputs = outputs_of(e.at("outputs"), output_order);
       if (e.contains("selected"))
         for (const auto& [output, inputs] : e.at("selected").items())
           b.selected.emplace_back(output, inputs.get<std::vector<std::string>>());

@@ -125,6 +125,19 @@ TEST_CASE("alc replay --case all --resume: after a kill, finished cases are show
   CHECK_THAT(parts.out, Catch::Matchers::Contains("Load case A (stopped at 50 h: a part)") &&
                             Catch::Matchers::Contains("Load case D (stopped at 50 h: a part)"));
   REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --resume").exit_code == 0);
+  {
+    // A shown from its stored indicators lists its outputs in the recording's order, as a replay does
+    // (before: alphabetical, E_A0C first, from the JSON document's keys).
+    const fs::path copy = work_dir() / "all_killed_copy.sqlite";
+    fs::remove(copy);
+    fs::copy_file(db, copy);
+    const Run table = alc("replay --case all --db \"" + copy.string() + "\" --resume");
+    REQUIRE(table.exit_code == 0);
+    const std::string a = table.out.substr(0, table.out.find("Load case B"));
+    CHECK(a.find("E_X0C") < a.find("E_Y0C"));
+    CHECK(a.find("E_Z0T") < a.find("E_A0C"));
+    CHECK(a.find("E_B0C") < a.find("E_C0C"));
+  }
   const Run mixed = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
   INFO(mixed.err);
   REQUIRE(mixed.exit_code == 0);

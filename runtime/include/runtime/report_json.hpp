@@ -20,7 +20,9 @@ namespace alc::runtime {
 // The report back from report_json() (what a study file stores); null numbers come back as NaN, the
 // baselines in the order of their names.
 // The wall times (identification_s, total_s) are not stored and come back 0. Throws
-// nlohmann::json::exception on a document of another shape.
-ReplayReport report_from_json(const nlohmann::json& j);
+// nlohmann::json::exception on a document of another shape. The document is keyed by output name
+// (sorted); with `output_order` (the run's output channels) the outputs come back in that order, as a
+// replay prints them; names it does not list follow in the document's order.
+ReplayReport report_from_json(const nlohmann::json& j, const std::vector<std::string>& output_order = {});
 
 }  // namespace alc::runtime
