@@ -33,6 +33,17 @@ int checked_stdout(int code) {
   return code == 0 ? 1 : code;
 }
 
+// No option of any command takes an empty value: `--db ""` (a script's unset $DB) read as "not given",
+// and the replay silently recorded no history; `--nc-out ""`, `--residuals ""` and an empty FILE alike.
+void refuse_empty_values(CLI::App& app) {
+  for (CLI::Option* o : app.get_options())
+    if (o->get_type_size() > 0)
+      o->check(CLI::Validator(
+          [](std::string& value) { return value.empty() ? std::string("the value is empty: give one, or leave the option out") : std::string(); },
+          "", "non-empty"));
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_empty_values(*sub);
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"alc: adaptive learning control of thermal errors of a 5-axis machine tool's rotary axis.\n"
                "Predicts the thermal location errors of the C axis from temperatures and machine states "
@@ -70,6 +81,7 @@ int run(int argc, char** argv) {
   alc::cli::add_nc_command(app);
   alc::cli::add_supervise_command(app);
   alc::cli::add_report_command(app);
+  refuse_empty_values(app);
 
   try {
     app.parse(argc, argv);

@@ -177,6 +177,23 @@ TEST_CASE("alc replay --resume refuses other parameters than the stored run's") 
   CHECK(r.err.find("cp_duration_s") == std::string::npos);
 }
 
+TEST_CASE("an empty option value is refused by every command, naming the option") {
+  // Before: `--db ""` (a script's unset $DB) read as "not given": the replay ran, exit 0, and recorded
+  // no history; `--nc-out ""`, `--residuals ""` and an empty FILE alike.
+  for (const char* args :
+       {"replay --case A --db ''", "replay --case A --nc-out ''", "replay --case A --residuals ''", "replay '' --case A",
+        "simulate --case A --out ''", "db info ''", "report '' --out x.html", "study report x --csv ''",
+        "--log-file '' replay --case A", "nc --in ''"}) {
+    INFO(args);
+    const Run r = alc(args);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(": the value is empty: give one, or leave the option out"));
+    CHECK(r.out.empty());
+  }
+  const Run named = alc("replay --case A --db ''");
+  CHECK_THAT(named.err, Catch::Matchers::StartsWith("--db: the value is empty"));
+}
+
 TEST_CASE("alc replay: usage errors name the option and value") {
   const Run bad = alc("replay --case A --interval soon");
   CHECK(bad.exit_code == 2);
