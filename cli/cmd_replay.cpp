@@ -304,6 +304,16 @@ void run_replay(const ReplayArgs& a) {
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   refuse_output_over_input("--residuals", a.residuals, a.db, "the history database");
   refuse_output_over_input("--residuals", a.residuals, a.file, "the recording replayed");
+  // The NC output directory is written whole (program files, commands.jsonl): --residuals in it would
+  // replace one of them, or be replaced.
+  if (!a.residuals.empty() && !a.nc_out.empty()) {
+    std::error_code ec;
+    const auto dir = std::filesystem::weakly_canonical(std::filesystem::absolute(a.nc_out), ec);
+    const auto parent = std::filesystem::weakly_canonical(std::filesystem::absolute(a.residuals).parent_path(), ec);
+    if (!ec && parent == dir)
+      throw UsageError("--residuals " + a.residuals + " is in the --nc-out directory " + a.nc_out +
+                       ", whose files the NC output writes; give another path");
+  }
   // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes. And
   // one before it begins: --since counts from scenario time 0 (a file stamped in Unix time starts at
   // ~470,000 h), so --since 26 meant as "26 h in" would silently change nothing.
@@ -314,6 +324,11 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError("--since " + a.since + " h is after the end of " + what + " (its last sample is at " +
                        common::shortest_text(scenario.time_s.back() / 3600.0) +
                        " h of scenario time): the controller would never learn from a probe");
+    // A recording without a single measurement: the same table of dashes, and Pd 100 %.
+    if (!scenario.outputs.array().isFinite().any())
+      throw UsageError(what + " has no probe measurement (its " + std::to_string(scenario.output_names.size()) +
+                       " error columns are empty on every row): CP would not end, no model would be made and "
+                       "nothing evaluated");
     // A CP longer than the recording: no model, nothing evaluated, a table of dashes.
     if (scenario.time_s.front() + params.cp_duration_s > scenario.time_s.back())
       throw UsageError("--cp " + a.cp + " h is longer than " + what +

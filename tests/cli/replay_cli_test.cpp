@@ -215,6 +215,23 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   const Run missing = alc("replay /nonexistent/rec.csv");
   CHECK(missing.exit_code == 2);  // an input file named on the command line: a usage error
   CHECK_THAT(missing.err, Catch::Matchers::Contains("/nonexistent/rec.csv: cannot open file for reading"));
+  // A recording without a single measurement: before, exit 0 with "Pd = 100.00 %" and a table of dashes.
+  const fs::path unmeasured = work_dir() / "unmeasured.csv";
+  { std::ofstream(unmeasured) << "time_s,T_ENV,E_X0C,E_A0C\n0,20,,\n60,20.1,,\n120,20.2,,\n"; }
+  const Run none = alc("replay \"" + unmeasured.string() + "\"");
+  CHECK(none.exit_code == 2);
+  CHECK_THAT(none.err, Catch::Matchers::Contains("unmeasured.csv has no probe measurement (its 2 error columns are "
+                                                 "empty on every row)"));
+  // --residuals in the --nc-out directory, whose files the NC output writes (before: commands.jsonl was
+  // replaced by the residuals, and with --db its commands still marked delivered).
+  const fs::path nc = work_dir() / "nc_and_residuals";
+  fs::remove_all(nc);
+  for (const std::string& residuals : {(nc / "commands.jsonl").string(), (nc / ".." / "nc_and_residuals" / "r.csv").string()}) {
+    const Run inside = alc("replay --case A --nc-out \"" + nc.string() + "\" --residuals \"" + residuals + "\"");
+    CHECK(inside.exit_code == 2);
+    CHECK_THAT(inside.err, Catch::Matchers::Contains("is in the --nc-out directory"));
+    CHECK_FALSE(fs::exists(nc));
+  }
 }
 
 TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {
