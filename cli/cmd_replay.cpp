@@ -188,10 +188,13 @@ void print_table3(std::ostream& os, const std::vector<std::pair<std::string, run
 // More of the run's identity than the parameters (which are stored as parsed values): what the
 // parameters do not say but the results depend on, the data included (scenarios::content_hash: a
 // --resume with another recording under the same file name is refused).
-nlohmann::json identity_of(const ReplayArgs& a, const scenarios::Scenario& scenario, const nc::MachineConfig& machine) {
+nlohmann::json identity_of(const ReplayArgs& a, const std::string& name, const scenarios::Scenario& scenario,
+                           const nc::MachineConfig& machine) {
   nlohmann::json j = nlohmann::json::object();
   j["scenario_hash"] = scenarios::content_hash(scenario);
-  if (a.seed_given) j["seed"] = a.seed;
+  // A seed other than the case's own (--seed 101 for A is the run without --seed, byte for byte).
+  const auto info = a.file.empty() ? scenarios::find_case(name) : std::nullopt;
+  if (a.seed_given && !(info && info->default_seed == a.seed)) j["seed"] = a.seed;
   // Its chain gives the stored offsets: --resume must repeat the machine, by content (the same file by
   // another path is the same machine; the file edited is another one).
   if (!a.machine.empty()) j["machine_hash"] = machine.content_hash;
@@ -374,7 +377,7 @@ void run_replay(const ReplayArgs& a) {
     runtime::ReplayOptions o;
     o.parameters = params;
     o.source = source_of(name);
-    o.identity = identity_of(a, scenario, machine);
+    o.identity = identity_of(a, name, scenario, machine);
     return o;
   };
   // --resume of several cases (--case all after a kill): per case, its unfinished run is resumed, a

@@ -420,7 +420,10 @@ TEST_CASE("alc replay: a run's identity is the parsed parameters, not their text
   fs::remove(db);
   REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10 --cp 6.5 --interval 2").exit_code == 0);
   // The same values written otherwise resume the run; the default window (14 d = 336 h) is stored.
-  const Run r = alc("replay --case A --db \"" + db.string() + "\" --resume --cp 6.50 --interval 2.0 --window 336 --json");
+  // So does the case's own seed given (--seed 101 is A without --seed, byte for byte; before: "/seed: not
+  // stored, given 101").
+  const Run r = alc("replay --case A --db \"" + db.string() +
+                    "\" --resume --cp 6.50 --interval 2.0 --window 336 --seed 101 --json");
   INFO(r.err);
   CHECK(r.exit_code == 0);
   const Run info = alc("db export \"" + db.string() + "\" --table runs --out \"" + (work_dir() / "runs.csv").string() + "\"");
@@ -433,6 +436,11 @@ TEST_CASE("alc replay: a run's identity is the parsed parameters, not their text
   const Run other = alc("replay --case A --db \"" + db.string() + "\" --resume");
   CHECK(other.exit_code == 2);
   CHECK_THAT(other.err, Catch::Matchers::Contains("/parameters/learning_window_s: stored 360000.0, given 1209600.0"));
+  // Another seed is another recording.
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10 --seed 5").exit_code == 0);
+  const Run seeded = alc("replay --case A --db \"" + db.string() + "\" --resume --seed 6");
+  CHECK(seeded.exit_code == 2);
+  CHECK_THAT(seeded.err, Catch::Matchers::Contains("was recorded from other data"));
 }
 
 TEST_CASE("an output file that is the database read or written is refused, and the database is left as it was") {
