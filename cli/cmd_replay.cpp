@@ -372,7 +372,11 @@ void run_replay(const ReplayArgs& a) {
     throw UsageError("--dialect needs --nc-out");
   }
 
-  const auto source_of = [&](const std::string& name) { return a.file.empty() ? "case " + name : "file " + name; };
+  // A file by the path given, written plainly (./rec.csv and rec.csv are one source; its content is in the
+  // identity anyway).
+  const auto source_of = [&](const std::string& name) {
+    return a.file.empty() ? "case " + name : "file " + std::filesystem::path(name).lexically_normal().string();
+  };
   const auto identity_options = [&](const std::string& name, const scenarios::Scenario& scenario) {
     runtime::ReplayOptions o;
     o.parameters = params;

@@ -441,6 +441,14 @@ TEST_CASE("alc replay: a run's identity is the parsed parameters, not their text
   const Run seeded = alc("replay --case A --db \"" + db.string() + "\" --resume --seed 6");
   CHECK(seeded.exit_code == 2);
   CHECK_THAT(seeded.err, Catch::Matchers::Contains("was recorded from other data"));
+  // A file is one source however its path is written (before: "no unfinished run of 'file D/./a.csv'").
+  const fs::path csv = work_dir() / "identity_a.csv";
+  REQUIRE(alc("simulate --case A --out \"" + csv.string() + "\"").exit_code == 0);
+  REQUIRE(alc("replay \"" + csv.string() + "\" --db \"" + db.string() + "\" --stop-at 10").exit_code == 0);
+  const Run dotted = alc("replay \"" + (work_dir() / "." / "identity_a.csv").string() + "\" --db \"" + db.string() +
+                         "\" --resume");
+  INFO(dotted.err);
+  CHECK(dotted.exit_code == 0);
 }
 
 TEST_CASE("an output file that is the database read or written is refused, and the database is left as it was") {
