@@ -151,6 +151,11 @@ Scenario parse_csv(std::istream& in, const std::string& source, const std::strin
       throw ScenarioCsvError(source, header_line, c + 1, name, header_text,
                              "duplicate column name in header, first at column " + std::to_string(first + 1));
     }
+    // "E_" alone starts like an error and names none: taken for an input, its empty cells were refused
+    // as "only measured-error (E_) columns may be empty".
+    if (name == "E_")
+      throw ScenarioCsvError(source, header_line, c + 1, name, header_text,
+                             "column name 'E_' names no error (an error column is E_ followed by its name, e.g. E_X0C)");
     if (name == "time_s") {
       roles[c] = Role::Time;
       time_col = static_cast<int>(c);

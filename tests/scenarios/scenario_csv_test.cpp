@@ -227,9 +227,11 @@ TEST_CASE("scenario CSV: a file with no E_ column or no input column is rejected
         "case.csv:1: no measured-error column (a name starting with 'E_') in header: value 'time_s,T_ENV'");
   CHECK(std::string(no_input.what()) ==
         "case.csv:1: no input column (any column other than time_s and E_…) in header: value 'time_s,E_X0C'");
-  // "E_" alone is not an error name, so it is an input.
+  // "E_" alone names no error, and no input either (before: an input, and then "no measured-error column (a
+  // name starting with 'E_')", which it seemed to be).
   CHECK(message_of("time_s,E_\n0,1\n") ==
-        "case.csv:1: no measured-error column (a name starting with 'E_') in header: value 'time_s,E_'");
+        "case.csv:1:2: column name 'E_' names no error (an error column is E_ followed by its name, e.g. E_X0C) "
+        "(column 'E_'): value 'time_s,E_'");
 }
 
 TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
@@ -251,6 +253,11 @@ TEST_CASE("scenario CSV: duplicate and empty column names are rejected") {
         "case.csv:1:4: duplicate column name in header, first at column 1 (column 'time_s'): "
         "value 'time_s,T,E_X0C,time_s'");
   CHECK(message_of("time_s,T,E_X0C,\n0,1,2,3\n") == "case.csv:1:4: empty column name in header: value 'time_s,T,E_X0C,'");
+  // "E_" alone names no error (before: taken for an input, its empty cells "only measured-error (E_) columns
+  // may be empty").
+  CHECK(message_of("time_s,T,E_X0C,E_\n0,1,2,\n") ==
+        "case.csv:1:4: column name 'E_' names no error (an error column is E_ followed by its name, e.g. E_X0C) "
+        "(column 'E_'): value 'time_s,T,E_X0C,E_'");
   // A quote inside a name (a spreadsheet's "T_""a"""): kept before, so that --residuals could not write it.
   CHECK(message_of("time_s,\"T_\"\"a\"\"\",E_X0C\n0,1,2\n") ==
         "case.csv:1:2: column name contains a quote: value 'T_\"\"a\"\"'");
