@@ -7,6 +7,7 @@
 #include <set>
 
 #include "common/strict_json.hpp"
+#include "common/utf8.hpp"
 #include "nc_interface/dialects.hpp"
 
 namespace alc::nc {
@@ -14,10 +15,9 @@ namespace {
 
 using nlohmann::json;
 
-std::string shorten(std::string text) {
-  if (text.size() > 80) text = text.substr(0, 77) + "...";
-  return text;
-}
+// A long value quoted in a message: cut between two UTF-8 characters (common::shortened), its bad bytes
+// and control characters shown as \xNN, so the message stays one line of text.
+std::string shorten(const std::string& text) { return common::shortened(common::escaped_utf8(text, true), 80); }
 
 class LineReader {
  public:

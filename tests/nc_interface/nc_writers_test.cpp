@@ -2,6 +2,8 @@
 // machine config, the replay entry point, transports and the `alc nc` command.
 #include <catch2/catch.hpp>
 
+#include "common/utf8.hpp"
+
 #include <set>
 #include <thread>
 
@@ -217,6 +219,14 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   CHECK_THAT(e.what(), Catch::Contains("got -5 (field 'minutes')"));  // not -5.000000
   e = fails(R"({"type":"probe_interval","minutes":1e400})");
   CHECK(e.line == 1);
+  // A long value is cut between two UTF-8 characters, its control characters shown as \xNN (before: cut
+  // at byte 77, inside a two-byte character, and a message quoting outside text could end mid-character).
+  e = fails(R"({"type":"axis_offsets","x_mm":0,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"work_offset":")" +
+            std::string(76, 'x') + "\u00e9\u00e9" + std::string(10, 'y') + "\"}");
+  CHECK(e.field == "work_offset");
+  CHECK(e.value.size() <= 80 + std::string("…").size());
+  CHECK(e.value.rfind("…") == e.value.size() - std::string("…").size());
+  CHECK(alc::common::invalid_utf8_at(e.value) == std::string::npos);
   e = fails(R"({"type":"spindle","rpm":5})");
   CHECK(e.field == "type");
   e = fails("not json");
