@@ -222,7 +222,7 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   // A long value is cut between two UTF-8 characters, its control characters shown as \xNN (before: cut
   // at byte 77, inside a two-byte character, and a message quoting outside text could end mid-character).
   e = fails(R"({"type":"axis_offsets","x_mm":0,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"work_offset":")" +
-            std::string(76, 'x') + "\u00e9\u00e9" + std::string(10, 'y') + "\"}");
+            std::string(75, 'x') + "\u00e9\u00e9" + std::string(10, 'y') + "\"}");
   CHECK(e.field == "work_offset");
   CHECK(e.value.size() <= 80 + std::string("…").size());
   CHECK(e.value.rfind("…") == e.value.size() - std::string("…").size());
