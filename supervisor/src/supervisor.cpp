@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
+#include "common/number_text.hpp"
 #include "common/utf8.hpp"
 #include "nc_interface/commands.hpp"
 #include "runtime/history_recorder.hpp"
@@ -336,7 +337,7 @@ void Supervisor::on_wall_clock(double wall_s) {
   stale_ = true;
   logger()->warn("no sample for {} s: stale, offsets held", wall_s - last_sample_wall_s_);
   event({{"type", "Stale"},
-         {"reason", "no sample for stale_after_s = " + std::to_string(config_.signals.stale_after_s) +
+         {"reason", "no sample for stale_after_s = " + common::shortest_text(config_.signals.stale_after_s) +
                         " s of wall-clock time: offsets held"}});
   publish("state", state_json(true), true);
 }
@@ -351,7 +352,7 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     // refused here, before the journal: a rejected sample changes nothing, not even the latest time.
     if (const std::string why = controller_.sample_problem(m.time_s, m.inputs); !why.empty()) return reject(topic, why);
     if (m.time_s == last_received_s_)
-      return reject(topic, "duplicate sample: time_s = " + std::to_string(m.time_s) + " s was accepted already");
+      return reject(topic, "duplicate sample: time_s = " + common::shortest_text(m.time_s) + " s was accepted already");
     // A jump ahead by more than max_gap_s counts once the next sample confirms it (journaled entries,
     // seq >= 0, were accepted already). The sample after a jump that does not confirm it sets it aside.
     const double gap = config_.signals.max_gap_s;
@@ -361,20 +362,20 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
       if (m.time_s > held.time_s && m.time_s <= held.time_s + gap) {
         accept_sample(held, held_payload, -1);
       } else {
-        reject(topic, "time jumps ahead to time_s = " + std::to_string(held.time_s) + " s from " +
-                          std::to_string(last_received_s_) + " s and the next sample (time_s = " +
-                          std::to_string(m.time_s) + " s) does not confirm it: set aside");
+        reject(topic, "time jumps ahead to time_s = " + common::shortest_text(held.time_s) + " s from " +
+                          common::shortest_text(last_received_s_) + " s and the next sample (time_s = " +
+                          common::shortest_text(m.time_s) + " s) does not confirm it: set aside");
       }
     }
     if (m.time_s < last_received_s_)
-      return reject(topic, "time goes backwards: time_s = " + std::to_string(m.time_s) + " s after " +
-                               std::to_string(last_received_s_) + " s");
+      return reject(topic, "time goes backwards: time_s = " + common::shortest_text(m.time_s) + " s after " +
+                               common::shortest_text(last_received_s_) + " s");
     if (seq < 0 && std::isfinite(last_received_s_) && m.time_s > last_received_s_ + gap) {
       jump_.emplace(m, payload);
       event({{"type", "TimeJump"},
              {"time_s", m.time_s},
-             {"reason", "time jumps ahead by " + std::to_string(m.time_s - last_received_s_) +
-                            " s, more than signals.max_gap_s = " + std::to_string(gap) +
+             {"reason", "time jumps ahead by " + common::shortest_text(m.time_s - last_received_s_) +
+                            " s, more than signals.max_gap_s = " + common::shortest_text(gap) +
                             " s: held until the next sample confirms it"}});
       return;
     }
@@ -390,14 +391,14 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
                                " (answered or timed out already)");
     }
     if (m.time_s < outstanding_->trigger_s)
-      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + std::to_string(m.time_s) +
-                               " s is before its request at " + std::to_string(outstanding_->trigger_s) + " s");
+      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + common::shortest_text(m.time_s) +
+                               " s is before its request at " + common::shortest_text(outstanding_->trigger_s) + " s");
     // A result measured after the probe would have timed out is no answer to it (a time of 1e12 would
     // hold every later sample for ever, waiting for the machine time to reach it).
     if (m.time_s > outstanding_->asked_s + config_.signals.probe_timeout_s)
-      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + std::to_string(m.time_s) +
+      return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + common::shortest_text(m.time_s) +
                                " s is after its timeout at " +
-                               std::to_string(outstanding_->asked_s + config_.signals.probe_timeout_s) +
+                               common::shortest_text(outstanding_->asked_s + config_.signals.probe_timeout_s) +
                                " s (request + signals.probe_timeout_s)");
     const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
     entry_seq_ = s;
@@ -436,7 +437,7 @@ void Supervisor::drain() {
                {"id", outstanding_->id},
                {"time_s", held_.back().time_s},
                {"reason", late ? "no result within probe_timeout_s = " +
-                                     std::to_string(config_.signals.probe_timeout_s) +
+                                     common::shortest_text(config_.signals.probe_timeout_s) +
                                      " s of machine time after the request"
                                : "no result while " + std::to_string(held_.size()) + " samples were held"}});
         outstanding_.reset();
