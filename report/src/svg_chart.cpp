@@ -244,6 +244,9 @@ std::string render_svg(const Chart& c) {
     bool pen = false;  // a point was drawn and the next one connects to it
     for (std::size_t i : minmax_downsample(s.x, s.y, x0, x1, buckets)) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+        // A step's value holds until the next point, so a NaN point (a probe interval of inf: no more
+        // probing) ends the run before it at its x, not at the last finite point.
+        if (s.style == Series::Style::Step && pen && std::isfinite(s.x[i])) d.append("H").append(num(X(s.x[i])));
         pen = false;
         continue;
       }

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
@@ -137,4 +138,37 @@ TEST_CASE("markers: a line with its tooltip each up to the limit - beyond it one
   // The other kind keeps its own line and tooltip.
   CHECK(test::count(many, "<line class=\"marker marker-refused\"") == 1);
   CHECK(many.find("refused: too large") != std::string::npos);
+}
+
+TEST_CASE("render_svg: a step series draws its value up to a NaN point (probe interval inf) - a gap after it",
+          "[report][svg]") {
+  // alc replay --interval inf: 5 min from 0 h, inf (NaN on the chart) at the end of CP, 6.5 h. Before,
+  // the path was "M72.0 …" alone: the NaN point lifted the pen without drawing the run to it.
+  Chart c;
+  c.id = "interval";
+  c.width = 960;
+  c.x_range = std::make_pair(0.0, 192.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  c.series.push_back({"probe interval", "#2ca02c", Series::Style::Step, {0.0, 6.5}, {5.0, nan}});
+  const auto path_of = [](const std::string& svg) {
+    const std::string open = "data-name=\"probe interval\"";
+    const auto at = svg.find(" d=\"", svg.find(open));
+    return svg.substr(at + 4, svg.find('"', at + 4) - at - 4);
+  };
+  const double x65 = kMarginLeft + 6.5 / 192.0 * (960 - kMarginLeft - kMarginRight);
+  char end[32];
+  std::snprintf(end, sizeof end, "H%.1f", x65);
+  std::string d = path_of(render_svg(c));
+  INFO(d);
+  CHECK(d.rfind("M72.0 ", 0) == 0);
+  CHECK(d.substr(d.size() - std::string(end).size()) == end);  // drawn to 6.5 h, not on to the end
+  CHECK(test::count(d, "M") == 1);
+  // Probing again after a gap: a new piece from the next finite point, held to the end of the plot.
+  c.series[0].x.push_back(100.0);
+  c.series[0].y.push_back(120.0);
+  d = path_of(render_svg(c));
+  INFO(d);
+  CHECK(d.find(std::string(end) + "M") != std::string::npos);
+  CHECK(test::count(d, "M") == 2);
+  CHECK(d.substr(d.size() - 6) == "H944.0");
 }

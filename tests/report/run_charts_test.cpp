@@ -1,0 +1,118 @@
+// What a run's charts say, read back from the page in the data's units (the axes' tick labels give
+// the scale): the probe interval up to the end of probing, Pd so far between probes, the end of CP
+// on the page's time axis for a recording that does not start at 0, the phase of a run that never
+// left calibration.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "../cli_support.hpp"
+#include "probing/schedule.hpp"
+#include "report/run_data.hpp"
+#include "report_test_support.hpp"
+#include "storage/history_reader.hpp"
+
+using namespace alc;
+using namespace alc::report;
+
+namespace {
+
+struct Point {
+  double x, y;
+};
+
+// The <figure> of chart `id` in a page.
+std::string figure(const std::string& html, const std::string& id) {
+  const std::string open = "<figure class=\"chart\" id=\"" + id + "\">";
+  const auto at = html.find(open);
+  REQUIRE(at != std::string::npos);
+  return html.substr(at, html.find("</figure>", at) - at);
+}
+
+// The value of attribute `name` in the element starting at `at`.
+std::string attribute(const std::string& text, std::size_t at, const std::string& name) {
+  const std::string key = " " + name + "=\"";
+  const auto from = text.find(key, at) + key.size();
+  return text.substr(from, text.find('"', from) - from);
+}
+
+// Pixel to data for both axes of a chart, from its grid lines and their tick labels.
+struct Scale {
+  double x_px0 = 0, x_v0 = 0, x_px1 = 1, x_v1 = 1, y_px0 = 0, y_v0 = 0, y_px1 = 1, y_v1 = 1;
+  double x(double px) const { return x_v0 + (px - x_px0) * (x_v1 - x_v0) / (x_px1 - x_px0); }
+  double y(double px) const { return y_v0 + (px - y_px0) * (y_v1 - y_v0) / (y_px1 - y_px0); }
+};
+
+Scale scale_of(const std::string& fig) {
+  std::vector<std::pair<double, double>> xs, ys;  // (px, value)
+  const std::string grid = "<line class=\"grid\"";
+  for (auto at = fig.find(grid); at != std::string::npos; at = fig.find(grid, at + 1)) {
+    const double x1 = std::stod(attribute(fig, at, "x1")), x2 = std::stod(attribute(fig, at, "x2"));
+    const double y1 = std::stod(attribute(fig, at, "y1"));
+    const auto text = fig.find('>', fig.find("<text class=\"tick\"", at)) + 1;
+    const double value = std::stod(fig.substr(text, fig.find('<', text) - text));
+    (x1 == x2 ? xs : ys).push_back({x1 == x2 ? x1 : y1, value});
+  }
+  REQUIRE(xs.size() >= 2);
+  REQUIRE(ys.size() >= 2);
+  return {xs.front().first, xs.front().second, xs.back().first, xs.back().second,
+          ys.front().first, ys.front().second, ys.back().first, ys.back().second};
+}
+
+// The vertices of the path of series `name` in chart `id`, in data units (M, L, H, V commands).
+std::vector<Point> curve(const std::string& html, const std::string& id, const std::string& name) {
+  const std::string fig = figure(html, id);
+  const Scale s = scale_of(fig);
+  const auto at = fig.find("data-name=\"" + name + "\"");
+  REQUIRE(at != std::string::npos);
+  std::istringstream d(attribute(fig, at, "d"));
+  std::vector<Point> out;
+  double px = 0, py = 0;
+  char command = 0;
+  while (d >> command) {
+    if (command == 'M' || command == 'L') d >> px >> py;
+    else if (command == 'H') d >> px;
+    else if (command == 'V') d >> py;
+    else FAIL("unexpected path command " << command);
+    out.push_back({s.x(px), s.y(py)});
+  }
+  return out;
+}
+
+std::string run(const std::string& args, const std::string& tag) {
+  const auto r = alc_test::run_alc(args, tag);
+  INFO(args << ": " << r.err);
+  REQUIRE(r.exit_code == 0);
+  return r.out;
+}
+
+}  // namespace
+
+TEST_CASE("probing stopped (--interval inf): the interval is drawn up to the end of CP",
+          "[report][html][cli]") {
+  const test::Scratch scratch("interval-inf");
+  const auto db = scratch.dir / "inf.sqlite", page = scratch.dir / "inf.html";
+  run("replay --case A --interval inf --db \"" + db.string() + "\"", "report_charts");
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  const std::string html = alc_test::slurp(page);
+  const storage::HistoryReader reader(db);
+  const RunData d = load_run(reader, 1);
+  REQUIRE(d.intervals.size() == 2);  // 5 min from the start, inf from the end of CP
+  const double cp_end_h = d.intervals[1].time_s / 3600.0;
+  CHECK(cp_end_h == Approx(6.5));
+
+  // Before, the path was "M72.0 108.0": one point, no line.
+  const auto interval = curve(html, "run1-interval", "probe interval");
+  INFO("probe interval vertices " << interval.size());
+  REQUIRE(interval.size() == 2);
+  CHECK(interval[0].x == Approx(0.0).margin(0.05));
+  CHECK(interval[0].y == Approx(5.0).margin(0.05));
+  CHECK(interval[1].x == Approx(cp_end_h).margin(0.05));  // one pixel column is 0.22 h
+  CHECK(interval[1].y == Approx(5.0).margin(0.05));
+}
