@@ -320,22 +320,31 @@ class RunSection {
     }
     c.series = {std::move(s)};
     page_.chart(c);
-    // Pd so far (Eq. 7) after each probe and at the end.
+    // Pd so far (Eq. 7): 1 - M(t) t_probe / t with M(t) the probes up to t. Between two probes M
+    // holds and Pd rises with t, a curve, not a line: it is drawn at every pixel column (joining
+    // the values at the probes alone put case A with --interval inf at 71 % at 24 h instead of
+    // 91.4 %), and at each probe twice, without it and with it (the drop).
     Chart p = base("pd", "Productivity Pd so far (Eq. 7)", "Pd [%]");
     p.spans = spans_;
     Series pd{"Pd", "#8c564b", Series::Style::Line, {}, {}};
-    int m = 0;
-    for (const auto& pr : d_.probes) {
-      ++m;
-      const double span = pr.time_s - t0_s_;
-      if (span <= 0) continue;
-      pd.x.push_back(hours(pr.time_s));
-      pd.y.push_back(probing::productivity_percent(m, span));
+    const auto add = [&](double span_s, std::size_t m) {
+      if (!(span_s > 0)) return;  // at the first sample Pd is not defined
+      pd.x.push_back(span_s / 3600.0);
+      pd.y.push_back(probing::productivity_percent(static_cast<double>(m), span_s));
+    };
+    double end_s = d_.samples.empty() ? 0.0 : d_.samples.back().time_s - t0_s_;
+    if (!d_.probes.empty()) end_s = std::max(end_s, d_.probes.back().time_s - t0_s_);
+    const auto columns = static_cast<std::size_t>(std::max(1, p.width - kMarginLeft - kMarginRight));
+    const double column_s = end_s / static_cast<double>(columns);
+    std::size_t m = 0, next_column = 1;
+    for (const auto& probe : d_.probes) {
+      const double at_s = probe.time_s - t0_s_;
+      for (; next_column <= columns && static_cast<double>(next_column) * column_s < at_s; ++next_column)
+        add(static_cast<double>(next_column) * column_s, m);
+      add(at_s, m);
+      add(at_s, ++m);
     }
-    if (!d_.samples.empty() && d_.samples.back().time_s > t0_s_) {
-      pd.x.push_back(hours(d_.samples.back().time_s));
-      pd.y.push_back(probing::productivity_percent(m, d_.samples.back().time_s - t0_s_));
-    }
+    for (; next_column <= columns; ++next_column) add(static_cast<double>(next_column) * column_s, m);
     p.series = {std::move(pd)};
     page_.chart(p);
   }

@@ -85,6 +85,14 @@ std::vector<Point> curve(const std::string& html, const std::string& id, const s
   return out;
 }
 
+// The curve's value at x (linear between its vertices); NaN outside it.
+double at_x(const std::vector<Point>& c, double x) {
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (c[i - 1].x <= x && x <= c[i].x && c[i].x > c[i - 1].x)
+      return c[i - 1].y + (x - c[i - 1].x) / (c[i].x - c[i - 1].x) * (c[i].y - c[i - 1].y);
+  return std::nan("");
+}
+
 std::string run(const std::string& args, const std::string& tag) {
   const auto r = alc_test::run_alc(args, tag);
   INFO(args << ": " << r.err);
@@ -115,4 +123,25 @@ TEST_CASE("probing stopped (--interval inf): the interval is drawn up to the end
   CHECK(interval[0].y == Approx(5.0).margin(0.05));
   CHECK(interval[1].x == Approx(cp_end_h).margin(0.05));  // one pixel column is 0.22 h
   CHECK(interval[1].y == Approx(5.0).margin(0.05));
+}
+
+TEST_CASE("probing stopped (--interval inf): Pd so far is Eq. 7 between the probes too", "[report][html][cli]") {
+  const test::Scratch scratch("pd-inf");
+  const auto db = scratch.dir / "inf.sqlite", page = scratch.dir / "inf.html";
+  run("replay --case A --interval inf --db \"" + db.string() + "\"", "report_charts");
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  const std::string html = alc_test::slurp(page);
+  const storage::HistoryReader reader(db);
+  const RunData d = load_run(reader, 1);
+  // Pd so far at 24 h and 100 h: Eq. 7 with the probes up to then (all of them in CP). Before, a
+  // straight line from the last probe (6.5 h) to the end (192 h): about 71 % at 24 h against 91.4 %.
+  const auto pd = curve(html, "run1-pd", "Pd");
+  for (const double t_h : {24.0, 100.0}) {
+    int m = 0;
+    for (const auto& p : d.probes) m += p.time_s <= t_h * 3600.0;
+    const double expected = probing::productivity_percent(m, t_h * 3600.0);
+    INFO("at " << t_h << " h: " << m << " probes, Pd " << expected << " %");
+    CHECK(at_x(pd, t_h) == Approx(expected).margin(0.3));
+  }
+  CHECK(at_x(pd, 24.0) == Approx(91.4).margin(0.3));
 }
