@@ -143,11 +143,7 @@ class RunSection {
     nlohmann::json doc;
     if (stored) doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
     const bool usable = stored && doc.is_object() && doc.contains("outputs");
-    if (!usable) {
-      runtime::ReplayReport probes = history_indicators(d_);
-      if (std::isfinite(probes.cp_end_s)) probes.cp_end_s -= t0_s_;  // hours of the time axes
-      doc = runtime::report_json(probes);
-    }
+    if (!usable) doc = runtime::report_json(history_indicators(d_));
     runtime::ReplayReport rep;
     try {
       rep = runtime::report_from_json(doc);
@@ -155,6 +151,14 @@ class RunSection {
       h += "<h3>Indicators</h3>\n<p class=\"note\">The indicators stored for this run cannot be read (" +
            escape_xml(e.what()) + ").</p>\n";
       return;
+    }
+    // One time convention on the page, the axes': hours from the run's first sample. Both documents
+    // give the end of CP in the scenario's time (time_s / 3600), which differs when a recording does
+    // not start at 0 (a recording shifted by 10 h said "CP ended at 16.50 h" beside CP shaded to 6.5 h).
+    // The shown value is also the one in data-value.
+    if (t0_s_ != 0.0 && std::isfinite(rep.cp_end_s)) {
+      rep.cp_end_s -= t0_s_;
+      doc["cp_end_h"] = doc.at("cp_end_h").get<double>() - t0_s_ / 3600.0;
     }
     // The document is keyed by output name (sorted); alc replay prints the run's channel order.
     const auto& names = d_.run.output_names;

@@ -93,6 +93,14 @@ double at_x(const std::vector<Point>& c, double x) {
   return std::nan("");
 }
 
+// The end of the first shaded span of `label` in chart `id`, in hours.
+double span_end(const std::string& html, const std::string& id, const std::string& label) {
+  const std::string fig = figure(html, id);
+  const auto at = fig.find("<rect class=\"span span-" + label + "\"");
+  REQUIRE(at != std::string::npos);
+  return scale_of(fig).x(std::stod(attribute(fig, at, "x")) + std::stod(attribute(fig, at, "width")));
+}
+
 std::string run(const std::string& args, const std::string& tag) {
   const auto r = alc_test::run_alc(args, tag);
   INFO(args << ": " << r.err);
@@ -144,4 +152,33 @@ TEST_CASE("probing stopped (--interval inf): Pd so far is Eq. 7 between the prob
     CHECK(at_x(pd, t_h) == Approx(expected).margin(0.3));
   }
   CHECK(at_x(pd, 24.0) == Approx(91.4).margin(0.3));
+}
+
+TEST_CASE("a recording that does not start at 0: CP ends on the page's time axis, where its shading ends",
+          "[report][html][cli]") {
+  const test::Scratch scratch("shifted");
+  const auto csv = scratch.dir / "a.csv", shifted = scratch.dir / "a_shift.csv";
+  const auto db = scratch.dir / "shift.sqlite", page = scratch.dir / "shift.html";
+  run("simulate --case A --out \"" + csv.string() + "\"", "report_charts");
+  {
+    // Every time 10 h later (the first field of each row).
+    std::ifstream in(csv);
+    std::ofstream out(shifted);
+    out.precision(17);
+    std::string line;
+    std::getline(in, line);
+    out << line << "\n";
+    while (std::getline(in, line)) {
+      const auto comma = line.find(',');
+      out << std::stod(line.substr(0, comma)) + 36000.0 << line.substr(comma) << "\n";
+    }
+  }
+  run("replay \"" + shifted.string() + "\" --db \"" + db.string() + "\"", "report_charts");
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  const std::string html = alc_test::slurp(page);
+  CHECK(html.find("(time_s 36000 s)") != std::string::npos);
+  // Before: "CP ended at 16.50 h" (the scenario's time) beside CP shaded to 6.5 h.
+  const std::string shown = "CP ended at <span data-key=\"cp_end_h\" data-value=\"6.5\">6.50</span> h";
+  CHECK(html.find(shown) != std::string::npos);
+  CHECK(span_end(html, "run1-E_X0C", "CP") == Approx(6.5).margin(0.05));
 }
