@@ -85,7 +85,9 @@ class RunSection {
     for (const auto& p : d.probes) last = std::max(last, p.time_s);
     x_range_ = {0.0, std::max(hours(last), 1e-3)};
     // Phase spans: from the start to the first change in its from-phase (replay records no change at
-    // the start), then from each change to the next, the last to the end of the run.
+    // the start), then from each change to the next, the last to the end of the run. A run without a
+    // change (stopped, or ended, in calibration) spent all of it in the phase a controller starts in.
+    if (d.phases.empty()) spans_.push_back({0.0, x_range_.second, "CP"});
     if (!d.phases.empty() && !d.phases.front().from_phase.empty())
       spans_.push_back({0.0, hours(d.phases.front().time_s), d.phases.front().from_phase});
     for (std::size_t i = 0; i < d.phases.size(); ++i) {
@@ -175,9 +177,10 @@ class RunSection {
     const std::string source = usable ? "replay" : "probes";
     h += "<h3>Indicators" + std::string(usable ? "" : " (from the probes of this history)") + "</h3>\n";
     h += "<p class=\"summary\" data-indicators=\"" + source + "\">duration " +
-         value(doc, "duration_h", fmt(rep.duration_s / 3600.0, 1)) + " h, CP ended at " +
-         (std::isfinite(rep.cp_end_s) ? value(doc, "cp_end_h", fmt(rep.cp_end_s / 3600.0, 2)) + " h"
-                                      : value(doc, "cp_end_h", "never")) +
+         value(doc, "duration_h", fmt(rep.duration_s / 3600.0, 1)) + " h, CP " +
+         (std::isfinite(rep.cp_end_s)
+              ? "ended at " + value(doc, "cp_end_h", fmt(rep.cp_end_s / 3600.0, 2)) + " h"
+              : value(doc, "cp_end_h", "not ended") + " (the run was in calibration up to its last sample)") +
          ", M = " + value(doc, "M", std::to_string(rep.M)) + " probe cycles, Pd = " + value(doc, "Pd", fmt(rep.Pd)) +
          " %, NG phases " + value(doc, "ng_phases", std::to_string(rep.ng_phases)) + ", model updates " +
          value(doc, "updates", std::to_string(rep.updates)) + ", rejected fits " +

@@ -182,3 +182,23 @@ TEST_CASE("a recording that does not start at 0: CP ends on the page's time axis
   CHECK(html.find(shown) != std::string::npos);
   CHECK(span_end(html, "run1-E_X0C", "CP") == Approx(6.5).margin(0.05));
 }
+
+TEST_CASE("a run that never left calibration: CP shaded over the whole run - the summary says CP did not end",
+          "[report][html][cli]") {
+  const test::Scratch scratch("stop3");
+  const auto db = scratch.dir / "stop3.sqlite", page = scratch.dir / "stop3.html";
+  run("replay --case A --db \"" + db.string() + "\" --stop-at 3", "report_charts");
+  REQUIRE(storage::HistoryReader(db).phase_changes(1).empty());
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  const std::string html = alc_test::slurp(page);
+  // Before: no span at all (no phase_changes rows), and "CP ended at never".
+  CHECK(test::count(html, "class=\"span span-") == test::count(html, "class=\"span span-CP\""));
+  const std::size_t outputs = storage::HistoryReader(db).run(1)->output_names.size();
+  CHECK(test::count(html, "class=\"span span-CP\"") >= 2 * outputs);
+  const auto fig = figure(html, "run1-E_X0C");
+  const auto x_end = scale_of(fig).x(944.0);  // the plot's right edge
+  CHECK(span_end(html, "run1-E_X0C", "CP") == Approx(x_end).margin(0.01));
+  CHECK(html.find("never") == std::string::npos);
+  CHECK(html.find("CP <span data-key=\"cp_end_h\" data-value=\"null\">not ended</span> (the run was in calibration "
+                  "up to its last sample)") != std::string::npos);
+}
