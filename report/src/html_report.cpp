@@ -240,7 +240,8 @@ class RunSection {
 
   void errors() {
     page_.html += "<h3>Errors</h3>\n<p class=\"note\">Shaded: CP (blue), Post-CP (white), NG (red). Vertical lines: "
-                  "model updates (green), rejected fits (grey, dashed). Error = probe measurement + compensation in "
+                  "model updates (green), rejected fits (grey, dashed); where too dense for lines, a tick per pixel "
+                  "column at the top edge. Error = probe measurement + compensation in "
                   "force.</p>\n";
     const Acl acl = acl_of(d_.run);
     const auto& names = d_.run.output_names;
@@ -485,7 +486,7 @@ svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .grid{stroke:#e4e4e4;stro
 svg.alc-chart .span-CP{fill:#dbe9f7}svg.alc-chart .span-NG{fill:#f9d6d5}svg.alc-chart .span-Post-CP{fill:none}
 svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
-svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
+svg.alc-chart .marker-ticks{opacity:.9;stroke-dasharray:none}svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
 svg.alc-chart path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
 svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}
 figcaption.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}

@@ -223,7 +223,23 @@ std::string render_svg(const Chart& c) {
     std::vector<const Marker*> in_range;
     for (const auto& m : c.markers)
       if (m.kind == kind && m.x >= x0 && m.x <= x1) in_range.push_back(&m);
-    const double top = kind == "sent" ? pb - 8.0 : pt;  // a command sent: a tick on the time axis
+    const bool bottom = kind == "sent";  // a command sent: a tick on the time axis
+    const double top = bottom ? pb - 8.0 : pt;
+    if (static_cast<double>(in_range.size()) * kMarkerMinSpacingPx > pr - pl) {
+      // Too dense for lines: a tick per pixel column that holds any (at its centre, crisp).
+      std::vector<double> columns;
+      for (const Marker* m : in_range) columns.push_back(std::floor(X(m->x)) + 0.5);
+      std::sort(columns.begin(), columns.end());
+      columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+      const double y0 = bottom ? pb - kMarkerTickPx : pt, y1 = bottom ? pb : pt + kMarkerTickPx;
+      std::string d;
+      for (double x : columns) d.append("M").append(num(x)).append(" ").append(num(y0)).append("V").append(num(y1));
+      o += "<path class=\"marker marker-" + escape_xml(kind) + " marker-ticks\" data-markers=\"" +
+           std::to_string(in_range.size()) + "\" data-columns=\"" + std::to_string(columns.size()) + "\" d=\"" + d +
+           "\"><title>" + std::to_string(in_range.size()) + " x " + escape_xml(kind) + " (too dense for lines: a tick " +
+           "per pixel column at the " + (bottom ? "bottom" : "top") + " edge)</title></path>\n";
+      continue;
+    }
     if (in_range.size() <= kMarkersAsLines) {
       for (const Marker* m : in_range)
         o += "<line class=\"marker marker-" + escape_xml(kind) + "\" x1=\"" + num(X(m->x)) + "\" x2=\"" +

@@ -44,6 +44,15 @@ struct Marker {                     // vertical line at x
 // line per marker and one tooltip, so a 90-day page does not carry thousands of elements per chart.
 inline constexpr std::size_t kMarkersAsLines = 40;
 
+// Lines are drawn while the markers of a kind are this far apart on average [px] (at most 109 in a plot
+// of 872 px): denser (a 90-day run's ~1077 model updates) they covered the whole plot in their
+// colour. Then each pixel column holding markers of the kind gets one short tick of kMarkerTickPx at
+// the plot's edge (the top; the bottom for commands sent, drawn there anyway), a rug that shows where
+// and how often without hiding the data: <path class="marker marker-KIND marker-ticks"
+// data-markers=N data-columns=K>.
+inline constexpr double kMarkerMinSpacingPx = 8.0;
+inline constexpr double kMarkerTickPx = 6.0;
+
 struct Chart {
   std::string id;                   // element id (unique in the page)
   std::string title;
