@@ -143,16 +143,25 @@ class RunSection {
     std::string& h = page_.html;
     const bool stored = d_.indicators.has_value();
     nlohmann::json doc;
-    if (stored) doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
-    const bool usable = stored && doc.is_object() && doc.contains("outputs");
-    if (!usable) doc = runtime::report_json(history_indicators(d_));
     runtime::ReplayReport rep;
-    try {
+    std::string unreadable;  // why the stored document cannot be shown (a damaged row)
+    if (stored) {
+      doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
+      if (doc.is_discarded())
+        unreadable = "run_indicators.report_json is not JSON";
+      else if (!doc.is_object() || !doc.contains("outputs"))
+        unreadable = "run_indicators.report_json is not a JSON object with \"outputs\"";
+      else
+        try {
+          rep = runtime::report_from_json(doc);
+        } catch (const nlohmann::json::exception& e) {
+          unreadable = std::string("run_indicators.report_json: ") + e.what();
+        }
+    }
+    const bool usable = stored && unreadable.empty();
+    if (!usable) {
+      doc = runtime::report_json(history_indicators(d_));
       rep = runtime::report_from_json(doc);
-    } catch (const nlohmann::json::exception& e) {
-      h += "<h3>Indicators</h3>\n<p class=\"note\">The indicators stored for this run cannot be read (" +
-           escape_xml(e.what()) + ").</p>\n";
-      return;
     }
     // One time convention on the page, the axes': hours from the run's first sample. Both documents
     // give the end of CP in the scenario's time (time_s / 3600), which differs when a recording does
@@ -232,9 +241,12 @@ class RunSection {
       h += "<p class=\"note\">As <code>alc replay</code> printed them when the run ended (stored in the history): "
            "every recorded measurement from the end of CP on against the prediction in force.</p>\n";
     else
-      h += "<p class=\"note\">This history stores no indicators of the run (a supervisor run, which has no truth "
-           "between its probes, a run that has not ended, or a file written before schema version 5), so they are "
-           "computed from its probes: every probe from the end of CP on against the stored prediction in force at "
+      h += "<p class=\"note\">" +
+           (stored ? "The indicators stored for this run cannot be read (" + escape_xml(unreadable) + "), so those shown"
+                   : std::string("This history stores no indicators of the run (a supervisor run, which has no truth "
+                                 "between its probes, a run that has not ended, or a file written before schema "
+                                 "version 5), so they")) +
+           " are computed from its probes: every probe from the end of CP on against the stored prediction in force at "
            "its time. A replay's own table also counts the measurements that were not probed.</p>\n";
   }
 
