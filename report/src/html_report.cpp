@@ -317,7 +317,11 @@ class RunSection {
       Chart c = make_chart(u, units[u]);
       for (std::size_t i = 0; i < names.size(); ++i) {
         if (unit_of_name(names[i]) != units[u]) continue;
-        Series s{names[i], kPalette[c.series.size() % kPaletteSize], Series::Style::Line, {}, {}};
+        // Beyond the palette's 10 colours (case S16 has 16 temperatures) the colours repeat with a
+        // dashed, then a dotted line, so no two lines of a chart look alike up to 30.
+        const std::size_t k = c.series.size();
+        Series s{names[i], kPalette[k % kPaletteSize], Series::Style::Line, {}, {}};
+        s.dash = static_cast<Series::Dash>(k / kPaletteSize % 3);
         for (const auto& r : records) {
           const std::vector<double>& v = values_of(r);
           s.x.push_back(hours(r.time_s));
@@ -500,7 +504,7 @@ svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
 svg.alc-chart .marker-ticks{opacity:.9;stroke-dasharray:none}svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
 svg.alc-chart path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
-svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}
+svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}svg.alc-chart path.dotted{stroke-dasharray:2 3}
 figcaption.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
 .legend i{display:inline-block;width:14px;height:4px;margin-right:5px;vertical-align:middle}
 .legend .key-points i{width:7px;height:7px;border-radius:50%}.legend i.hband-key{background:#ffe8c2;height:10px}

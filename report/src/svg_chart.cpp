@@ -24,6 +24,24 @@ std::string tick_text(double v, double step) {
   return num(v, decimals);
 }
 
+const char* dash_class(Series::Dash d) {
+  switch (d) {
+    case Series::Dash::Dashed: return " dashed";
+    case Series::Dash::Dotted: return " dotted";
+    default: return "";
+  }
+}
+
+// A legend key: the colour, with the line's pattern as gaps (the same dash and gap lengths).
+std::string key_background(const Series& s) {
+  const std::string c = escape_xml(s.color);
+  switch (s.dash) {
+    case Series::Dash::Dashed: return "repeating-linear-gradient(90deg," + c + " 0 6px,transparent 6px 10px)";
+    case Series::Dash::Dotted: return "repeating-linear-gradient(90deg," + c + " 0 2px,transparent 2px 5px)";
+    default: return c;
+  }
+}
+
 const char* style_name(Series::Style s) {
   switch (s) {
     case Series::Style::Points: return "points";
@@ -280,7 +298,7 @@ std::string render_svg(const Chart& c) {
       pen = true;
     }
     if (s.style == Series::Style::Step && pen) d.append("H").append(num(pr));  // the last value holds to the end
-    o += "<path class=\"series series-" + std::string(style_name(s.style)) + (s.dashed ? " dashed" : "") +
+    o += "<path class=\"series series-" + std::string(style_name(s.style)) + dash_class(s.dash) +
          "\" data-name=\"" + escape_xml(s.name) + "\" data-style=\"" + style_name(s.style) + "\" data-points=\"" +
          std::to_string(points) + "\" data-source-points=\"" + std::to_string(std::min(s.x.size(), s.y.size())) +
          "\" stroke=\"" + escape_xml(s.color) + "\" d=\"" + d + "\"><title>" + escape_xml(s.name) + "</title></path>\n";
@@ -288,7 +306,7 @@ std::string render_svg(const Chart& c) {
   o += "</g>\n</svg>\n<figcaption class=\"legend\">";
   for (const auto& s : c.series)
     o += "<span class=\"key key-" + std::string(style_name(s.style)) + "\"><i style=\"background:" +
-         escape_xml(s.color) + "\"></i>" + escape_xml(s.name) + "</span>";
+         key_background(s) + "\"></i>" + escape_xml(s.name) + "</span>";
   for (const auto& b : c.hbands) o += "<span class=\"key\"><i class=\"hband-key\"></i>" + escape_xml(b.label) + "</span>";
   o += "</figcaption>\n</figure>\n";
   return o;

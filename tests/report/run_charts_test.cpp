@@ -4,6 +4,7 @@
 // left calibration.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -201,4 +202,32 @@ TEST_CASE("a run that never left calibration: CP shaded over the whole run - the
   CHECK(html.find("never") == std::string::npos);
   CHECK(html.find("CP <span data-key=\"cp_end_h\" data-value=\"null\">not ended</span> (the run was in calibration "
                   "up to its last sample)") != std::string::npos);
+}
+
+TEST_CASE("a chart of more lines than the palette has colours (case S16: 16 temperatures): no two look alike",
+          "[report][html][cli]") {
+  const test::Scratch scratch("s16");
+  const auto db = scratch.dir / "s16.sqlite", page = scratch.dir / "s16.html";
+  run("replay --case S16 --db \"" + db.string() + "\" --stop-at 10", "report_charts");
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  const std::string html = alc_test::slurp(page);
+  const std::string fig = figure(html, "run1-inputs-0");
+  REQUIRE(fig.find(">temperatures [°C]</text>") != std::string::npos);
+  // Each line's look: its colour and its pattern (the class after "series-line"), and its legend key.
+  std::vector<std::string> looks, keys;
+  const std::string open = "<path class=\"series series-line";
+  for (auto at = fig.find(open); at != std::string::npos; at = fig.find(open, at + 1)) {
+    const auto pattern = fig.substr(at + open.size(), fig.find('"', at + open.size()) - at - open.size());
+    looks.push_back(attribute(fig, at, "stroke") + pattern);
+  }
+  const std::string key = "<span class=\"key key-line\"><i style=\"";
+  for (auto at = fig.find(key); at != std::string::npos; at = fig.find(key, at + 1))
+    keys.push_back(fig.substr(at + key.size(), fig.find('"', at + key.size()) - at - key.size()));
+  REQUIRE(looks.size() == 16);
+  REQUIRE(keys.size() == 16);
+  for (auto* v : {&looks, &keys}) {
+    std::sort(v->begin(), v->end());
+    CHECK(std::adjacent_find(v->begin(), v->end()) == v->end());  // before: colours 11-16 repeated 1-6
+  }
+  CHECK(test::count(fig, "series-line dashed") == 6);
 }

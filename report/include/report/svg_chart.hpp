@@ -16,11 +16,12 @@ namespace alc::report {
 
 struct Series {
   enum class Style { Line, Points, Step };
+  enum class Dash { Solid, Dashed, Dotted };  // a line's pattern, also in its legend key
   std::string name;                 // legend text
   std::string color;                // CSS colour
   Style style = Style::Line;
   std::vector<double> x, y;         // same length; NaN in y breaks a line
-  bool dashed = false;
+  Dash dash = Dash::Solid;          // class "dashed" / "dotted" on the path
 };
 
 struct Span {                       // shaded x range (a phase)
