@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string_view>
+
+#include "common/utf8.hpp"
 
 namespace alc::report {
 
@@ -67,9 +70,14 @@ std::pair<double, double> x_domain(const Chart& c) {
 }  // namespace
 
 std::string escape_xml(const std::string& text) {
+  // The page says it is UTF-8: bytes that are not (a channel name, a message or a file name from
+  // outside) are shown as \xNN, never copied raw into it.
+  const std::string valid =
+      common::invalid_utf8_at(text) == std::string_view::npos ? std::string() : common::valid_utf8(text);
+  const std::string& from = valid.empty() ? text : valid;
   std::string out;
-  out.reserve(text.size());
-  for (char ch : text) {
+  out.reserve(from.size());
+  for (char ch : from) {
     switch (ch) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;

@@ -4,10 +4,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <sqlite3.h>
 #include <string>
 
 #include "../cli_support.hpp"
+#include "common/utf8.hpp"
 #include "report/run_data.hpp"
+#include "report/svg_chart.hpp"
 #include "report_test_support.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/storage_error.hpp"
@@ -190,4 +193,29 @@ TEST_CASE("report of a study file: the study's Pareto front of each case and its
     CHECK(html.find(text.substr(text.find("<svg"))) != std::string::npos);
   }
   CHECK(files == 3);
+}
+
+TEST_CASE("bytes that are not UTF-8 in the database or the file name are escaped, never copied raw into the page",
+          "[report][html]") {
+  // The page is declared utf-8; a run's source, a channel name or the file's name with a stray byte
+  // went into it as is.
+  const test::Scratch scratch("utf8");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const auto file = dir / "history-\xff.sqlite";
+  std::filesystem::copy_file(h.db, file);
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(file.c_str(), &db) == SQLITE_OK);
+  CHECK(sqlite3_exec(db,
+                     "UPDATE runs SET source = CAST(X'636173652041FE42' AS TEXT);"  // "case A\xFEB"
+                     "UPDATE run_channels SET name = CAST(X'545F454E56FF' AS TEXT) "  // "T_ENV\xFF"
+                     "WHERE kind = 'input' AND channel_index = 0;",
+                     nullptr, nullptr, nullptr) == SQLITE_OK);
+  sqlite3_close(db);
+  const std::string html = html_report(file, {});
+  CHECK(common::invalid_utf8_at(html) == std::string::npos);
+  CHECK(html.find("case A\\xFEB") != std::string::npos);
+  CHECK(html.find("data-name=\"T_ENV\\xFF\"") != std::string::npos);
+  CHECK(html.find("<title>ALC report: history-\\xFF.sqlite</title>") != std::string::npos);
+  CHECK(escape_xml("a\xc3\xa9 <\xc3>") == "a\xc3\xa9 &lt;\\xC3&gt;");  // é kept, a cut sequence escaped
 }

@@ -89,7 +89,8 @@ std::vector<double> nice_ticks(double lo, double hi, int target, bool hours = fa
 // the svg carries data-series (number of series).
 std::string render_svg(const Chart& chart);
 
-// Text escaped for HTML/SVG content and attributes (& < > " ').
+// Text escaped for HTML/SVG content and attributes (& < > " '); a byte that is not part of well-formed
+// UTF-8 becomes the text \xNN (common::valid_utf8).
 std::string escape_xml(const std::string& text);
 
 }  // namespace alc::report
