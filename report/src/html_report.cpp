@@ -468,13 +468,20 @@ void study_section(const std::filesystem::path& file, const storage::StudyHeader
   const study::Analysis a = study::analyse(info, rows);
   const study::FiguresRendered figures = study::render_figures(info, rows, a, std::nullopt);
   std::string& h = page.html;
+  // A grid without an interval or ng-meas axis has no heat map (a note below says so): then the
+  // text does not describe any.
+  const bool heat_maps = std::any_of(figures.figures.begin(), figures.figures.end(),
+                                     [](const study::Figure& f) { return f.name.rfind("heatmap-", 0) == 0; });
   h += "<section class=\"study\" id=\"study\">\n<h2>Study: " + std::to_string(info.sets.size()) + " parameter sets x " +
        std::to_string(info.cases.size()) + " cases</h2>\n<p>" + std::to_string(a.rows) + " of " +
        std::to_string(a.expected) + " rows present (shard " + escape_xml(info.shard) + ", " +
        escape_xml(info.software_version) + "). Per case every parameter set is a point of mean linear P99 against "
-       "Pd; the line joins the sets no other set beats on both (Pareto front); dashed: the P99 limit of Eq. 8. The "
-       "heat maps show the mean over the cases of P99 and of Pd over Post-CP interval x NG measurements at CP " +
-       escape_xml(figures.heatmap_cp) + " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
+       "Pd; the line joins the sets no other set beats on both (Pareto front); dashed: the P99 limit of Eq. 8." +
+       (heat_maps ? " The heat maps show the mean over the cases of P99 and of Pd over Post-CP interval x NG "
+                    "measurements at CP " +
+                        escape_xml(figures.heatmap_cp) +
+                        " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
+                  : std::string()) +
        "</p>\n";
   for (std::size_t ci = 0; ci < a.cases.size(); ++ci)
     if (const auto& ca = a.cases[ci]; ca.optimum)

@@ -219,3 +219,23 @@ TEST_CASE("bytes that are not UTF-8 in the database or the file name are escaped
   CHECK(html.find("<title>ALC report: history-\\xFF.sqlite</title>") != std::string::npos);
   CHECK(escape_xml("a\xc3\xa9 <\xc3>") == "a\xc3\xa9 &lt;\\xC3&gt;");  // é kept, a cut sequence escaped
 }
+
+TEST_CASE("report of a study whose grid has no heat map: the page does not describe heat maps", "[report][html][cli]") {
+  const test::Scratch scratch("study-no-heatmap");
+  const auto dir = scratch.dir / "no-heatmap";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\n";  // no ng-meas axis
+  const auto db = dir / "study.sqlite";
+  const auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                       db.string() + "\"",
+                                   "report_study_no_heatmap");
+  REQUIRE(r.exit_code == 0);
+  ReportStats stats;
+  const std::string html = html_report(db, {}, &stats);
+  CHECK(stats.figures == 1);  // the Pareto figure of case A only
+  CHECK(html.find("no heat map: the grid has no &#39;ng-meas&#39; axis") != std::string::npos);
+  CHECK(html.find("The heat maps show") == std::string::npos);  // said so before
+  // With heat maps the text is there (the study of the other test).
+  const auto with = test::small_study(scratch.dir, "report_study_no_heatmap");
+  CHECK(html_report(with, {}).find("The heat maps show the mean over the cases") != std::string::npos);
+}
