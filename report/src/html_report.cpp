@@ -114,10 +114,16 @@ class RunSection {
          " model parameter sets. Time axes: hours from the run's first sample (time_s " + fmt(t0_s_, 0) +
          " s).</p>\n";
     indicators();
-    errors();
-    inputs();
-    probing();
-    offsets();
+    if (d_.samples.empty() && d_.probes.empty() && d_.predictions.empty()) {
+      // Twenty frames, each empty, said nothing about why.
+      h += "<p class=\"note no-data\">This run holds no input samples, probes or predictions (it ended, or the file "
+           "was read, before its first sample): no chart to draw.</p>\n";
+    } else {
+      errors();
+      inputs();
+      probing();
+      offsets();
+    }
     models();
     parameters();
     h += "</section>\n";
@@ -505,7 +511,7 @@ table{border-collapse:collapse;margin:6px 0;font-size:13px}td,th{border:1px soli
 td:first-child,th:first-child,.parameters td{text-align:left}
 figure.chart{margin:8px 0 14px}svg.alc-chart{display:block;background:#fff}
 svg.alc-chart text{font:11px system-ui,sans-serif;fill:#333}svg.alc-chart .chart-title{font-size:13px;font-weight:600}
-svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .grid{stroke:#e4e4e4;stroke-width:1}svg.alc-chart .frame{fill:none;stroke:#888}
+svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .no-data{font-size:13px;fill:#888}svg.alc-chart .grid{stroke:#e4e4e4;stroke-width:1}svg.alc-chart .frame{fill:none;stroke:#888}
 svg.alc-chart .span-CP{fill:#dbe9f7}svg.alc-chart .span-NG{fill:#f9d6d5}svg.alc-chart .span-Post-CP{fill:none}
 svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}

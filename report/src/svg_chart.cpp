@@ -280,6 +280,7 @@ std::string render_svg(const Chart& c) {
          "</title></path>\n";
   }
   const auto buckets = static_cast<std::size_t>(std::max(1.0, pr - pl));
+  std::size_t drawn_total = 0;  // points of every series
   for (const auto& s : c.series) {
     std::string d;
     std::size_t points = 0;
@@ -305,12 +306,17 @@ std::string render_svg(const Chart& c) {
       }
       pen = true;
     }
+    drawn_total += points;
     if (s.style == Series::Style::Step && pen) d.append("H").append(num(pr));  // the last value holds to the end
     o += "<path class=\"series series-" + std::string(style_name(s.style)) + dash_class(s.dash) +
          "\" data-name=\"" + escape_xml(s.name) + "\" data-style=\"" + style_name(s.style) + "\" data-points=\"" +
          std::to_string(points) + "\" data-source-points=\"" + std::to_string(std::min(s.x.size(), s.y.size())) +
          "\" stroke=\"" + escape_xml(s.color) + "\" d=\"" + d + "\"><title>" + escape_xml(s.name) + "</title></path>\n";
   }
+  // A chart with nothing to draw says so: an empty frame reads like a drawing that failed.
+  if (drawn_total == 0)
+    o += "<text class=\"no-data\" x=\"" + num((pl + pr) / 2) + "\" y=\"" + num((pt + pb) / 2) +
+         "\" text-anchor=\"middle\">no data</text>\n";
   o += "</g>\n</svg>\n<figcaption class=\"legend\">";
   for (const auto& s : c.series)
     o += "<span class=\"key key-" + std::string(style_name(s.style)) + "\"><i style=\"background:" +

@@ -231,3 +231,17 @@ TEST_CASE("a chart of more lines than the palette has colours (case S16: 16 temp
   }
   CHECK(test::count(fig, "series-line dashed") == 6);
 }
+
+TEST_CASE("a run without samples, probes or predictions: a note instead of twenty empty charts", "[report][html][cli]") {
+  const test::Scratch scratch("no-samples");
+  const auto db = scratch.dir / "empty.sqlite";
+  run("replay --case A --db \"" + db.string() + "\" --stop-at 0", "report_charts");
+  REQUIRE(storage::HistoryReader(db).input_samples(1).empty());
+  ReportStats stats;
+  const std::string html = html_report(db, {}, &stats);
+  CHECK(stats.runs == 1);
+  CHECK(stats.charts == 0);  // before: 20 frames, each empty, no word why
+  CHECK(html.find("This run holds no input samples, probes or predictions") != std::string::npos);
+  CHECK(html.find("<table class=\"indicators\"") != std::string::npos);  // the rest of the run's section stays
+  CHECK(html.find("<h3>Parameters</h3>") != std::string::npos);
+}

@@ -216,3 +216,15 @@ TEST_CASE("markers too dense for lines (a 90-day run's model updates): a tick pe
   CHECK(chart_with(lines, "update").find("marker-ticks") == std::string::npos);
   CHECK(chart_with(lines + 1, "update").find("marker-ticks") != std::string::npos);
 }
+
+TEST_CASE("render_svg: a chart with nothing to draw says 'no data'", "[report][svg]") {
+  Chart c;
+  c.id = "empty";
+  c.x_range = std::make_pair(0.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  c.series.push_back({"none", "#000", Series::Style::Line, {}, {}});
+  c.series.push_back({"gap only", "#000", Series::Style::Step, {0.5}, {nan}});
+  CHECK(test::count(render_svg(c), ">no data</text>") == 1);
+  c.series.push_back({"one point", "#000", Series::Style::Points, {0.5}, {1.0}});
+  CHECK(render_svg(c).find("no data") == std::string::npos);
+}
