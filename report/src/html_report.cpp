@@ -85,7 +85,9 @@ class RunSection {
     for (const auto& p : d.probes) last = std::max(last, p.time_s);
     x_range_ = {0.0, std::max(hours(last), 1e-3)};
     // Phase spans: from the start to the first change in its from-phase (replay records no change at
-    // the start), then from each change to the next, the last to the end of the run.
+    // the start), then from each change to the next, the last to the end of the run. A run without a
+    // change (stopped, or ended, in calibration) spent all of it in the phase a controller starts in.
+    if (d.phases.empty()) spans_.push_back({0.0, x_range_.second, "CP"});
     if (!d.phases.empty() && !d.phases.front().from_phase.empty())
       spans_.push_back({0.0, hours(d.phases.front().time_s), d.phases.front().from_phase});
     for (std::size_t i = 0; i < d.phases.size(); ++i) {
@@ -112,10 +114,16 @@ class RunSection {
          " model parameter sets. Time axes: hours from the run's first sample (time_s " + fmt(t0_s_, 0) +
          " s).</p>\n";
     indicators();
-    errors();
-    inputs();
-    probing();
-    offsets();
+    if (d_.samples.empty() && d_.probes.empty() && d_.predictions.empty()) {
+      // Twenty frames, each empty, said nothing about why.
+      h += "<p class=\"note no-data\">This run holds no input samples, probes or predictions (it ended, or the file "
+           "was read, before its first sample): no chart to draw.</p>\n";
+    } else {
+      errors();
+      inputs();
+      probing();
+      offsets();
+    }
     models();
     parameters();
     h += "</section>\n";
@@ -141,20 +149,33 @@ class RunSection {
     std::string& h = page_.html;
     const bool stored = d_.indicators.has_value();
     nlohmann::json doc;
-    if (stored) doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
-    const bool usable = stored && doc.is_object() && doc.contains("outputs");
-    if (!usable) {
-      runtime::ReplayReport probes = history_indicators(d_);
-      if (std::isfinite(probes.cp_end_s)) probes.cp_end_s -= t0_s_;  // hours of the time axes
-      doc = runtime::report_json(probes);
-    }
     runtime::ReplayReport rep;
-    try {
+    std::string unreadable;  // why the stored document cannot be shown (a damaged row)
+    if (stored) {
+      doc = nlohmann::json::parse(d_.indicators->report_json, nullptr, false);
+      if (doc.is_discarded())
+        unreadable = "run_indicators.report_json is not JSON";
+      else if (!doc.is_object() || !doc.contains("outputs"))
+        unreadable = "run_indicators.report_json is not a JSON object with \"outputs\"";
+      else
+        try {
+          rep = runtime::report_from_json(doc);
+        } catch (const nlohmann::json::exception& e) {
+          unreadable = std::string("run_indicators.report_json: ") + e.what();
+        }
+    }
+    const bool usable = stored && unreadable.empty();
+    if (!usable) {
+      doc = runtime::report_json(history_indicators(d_));
       rep = runtime::report_from_json(doc);
-    } catch (const nlohmann::json::exception& e) {
-      h += "<h3>Indicators</h3>\n<p class=\"note\">The indicators stored for this run cannot be read (" +
-           escape_xml(e.what()) + ").</p>\n";
-      return;
+    }
+    // One time convention on the page, the axes': hours from the run's first sample. Both documents
+    // give the end of CP in the scenario's time (time_s / 3600), which differs when a recording does
+    // not start at 0 (a recording shifted by 10 h said "CP ended at 16.50 h" beside CP shaded to 6.5 h).
+    // The shown value is also the one in data-value.
+    if (t0_s_ != 0.0 && std::isfinite(rep.cp_end_s)) {
+      rep.cp_end_s -= t0_s_;
+      doc["cp_end_h"] = doc.at("cp_end_h").get<double>() - t0_s_ / 3600.0;
     }
     // The document is keyed by output name (sorted); alc replay prints the run's channel order.
     const auto& names = d_.run.output_names;
@@ -171,9 +192,10 @@ class RunSection {
     const std::string source = usable ? "replay" : "probes";
     h += "<h3>Indicators" + std::string(usable ? "" : " (from the probes of this history)") + "</h3>\n";
     h += "<p class=\"summary\" data-indicators=\"" + source + "\">duration " +
-         value(doc, "duration_h", fmt(rep.duration_s / 3600.0, 1)) + " h, CP ended at " +
-         (std::isfinite(rep.cp_end_s) ? value(doc, "cp_end_h", fmt(rep.cp_end_s / 3600.0, 2)) + " h"
-                                      : value(doc, "cp_end_h", "never")) +
+         value(doc, "duration_h", fmt(rep.duration_s / 3600.0, 1)) + " h, CP " +
+         (std::isfinite(rep.cp_end_s)
+              ? "ended at " + value(doc, "cp_end_h", fmt(rep.cp_end_s / 3600.0, 2)) + " h"
+              : value(doc, "cp_end_h", "not ended") + " (the run was in calibration up to its last sample)") +
          ", M = " + value(doc, "M", std::to_string(rep.M)) + " probe cycles, Pd = " + value(doc, "Pd", fmt(rep.Pd)) +
          " %, NG phases " + value(doc, "ng_phases", std::to_string(rep.ng_phases)) + ", model updates " +
          value(doc, "updates", std::to_string(rep.updates)) + ", rejected fits " +
@@ -225,15 +247,19 @@ class RunSection {
       h += "<p class=\"note\">As <code>alc replay</code> printed them when the run ended (stored in the history): "
            "every recorded measurement from the end of CP on against the prediction in force.</p>\n";
     else
-      h += "<p class=\"note\">This history stores no indicators of the run (a supervisor run, which has no truth "
-           "between its probes, a run that has not ended, or a file written before schema version 5), so they are "
-           "computed from its probes: every probe from the end of CP on against the stored prediction in force at "
+      h += "<p class=\"note\">" +
+           (stored ? "The indicators stored for this run cannot be read (" + escape_xml(unreadable) + "), so those shown"
+                   : std::string("This history stores no indicators of the run (a supervisor run, which has no truth "
+                                 "between its probes, a run that has not ended, or a file written before schema "
+                                 "version 5), so they")) +
+           " are computed from its probes: every probe from the end of CP on against the stored prediction in force at "
            "its time. A replay's own table also counts the measurements that were not probed.</p>\n";
   }
 
   void errors() {
     page_.html += "<h3>Errors</h3>\n<p class=\"note\">Shaded: CP (blue), Post-CP (white), NG (red). Vertical lines: "
-                  "model updates (green), rejected fits (grey, dashed). Error = probe measurement + compensation in "
+                  "model updates (green), rejected fits (grey, dashed); where too dense for lines, a tick per pixel "
+                  "column at the top edge. Error = probe measurement + compensation in "
                   "force.</p>\n";
     const Acl acl = acl_of(d_.run);
     const auto& names = d_.run.output_names;
@@ -297,7 +323,11 @@ class RunSection {
       Chart c = make_chart(u, units[u]);
       for (std::size_t i = 0; i < names.size(); ++i) {
         if (unit_of_name(names[i]) != units[u]) continue;
-        Series s{names[i], kPalette[c.series.size() % kPaletteSize], Series::Style::Line, {}, {}};
+        // Beyond the palette's 10 colours (case S16 has 16 temperatures) the colours repeat with a
+        // dashed, then a dotted line, so no two lines of a chart look alike up to 30.
+        const std::size_t k = c.series.size();
+        Series s{names[i], kPalette[k % kPaletteSize], Series::Style::Line, {}, {}};
+        s.dash = static_cast<Series::Dash>(k / kPaletteSize % 3);
         for (const auto& r : records) {
           const std::vector<double>& v = values_of(r);
           s.x.push_back(hours(r.time_s));
@@ -320,22 +350,31 @@ class RunSection {
     }
     c.series = {std::move(s)};
     page_.chart(c);
-    // Pd so far (Eq. 7) after each probe and at the end.
+    // Pd so far (Eq. 7): 1 - M(t) t_probe / t with M(t) the probes up to t. Between two probes M
+    // holds and Pd rises with t, a curve, not a line: it is drawn at every pixel column (joining
+    // the values at the probes alone put case A with --interval inf at 71 % at 24 h instead of
+    // 91.4 %), and at each probe twice, without it and with it (the drop).
     Chart p = base("pd", "Productivity Pd so far (Eq. 7)", "Pd [%]");
     p.spans = spans_;
     Series pd{"Pd", "#8c564b", Series::Style::Line, {}, {}};
-    int m = 0;
-    for (const auto& pr : d_.probes) {
-      ++m;
-      const double span = pr.time_s - t0_s_;
-      if (span <= 0) continue;
-      pd.x.push_back(hours(pr.time_s));
-      pd.y.push_back(probing::productivity_percent(m, span));
+    const auto add = [&](double span_s, std::size_t m) {
+      if (!(span_s > 0)) return;  // at the first sample Pd is not defined
+      pd.x.push_back(span_s / 3600.0);
+      pd.y.push_back(probing::productivity_percent(static_cast<double>(m), span_s));
+    };
+    double end_s = d_.samples.empty() ? 0.0 : d_.samples.back().time_s - t0_s_;
+    if (!d_.probes.empty()) end_s = std::max(end_s, d_.probes.back().time_s - t0_s_);
+    const auto columns = static_cast<std::size_t>(std::max(1, p.width - kMarginLeft - kMarginRight));
+    const double column_s = end_s / static_cast<double>(columns);
+    std::size_t m = 0, next_column = 1;
+    for (const auto& probe : d_.probes) {
+      const double at_s = probe.time_s - t0_s_;
+      for (; next_column <= columns && static_cast<double>(next_column) * column_s < at_s; ++next_column)
+        add(static_cast<double>(next_column) * column_s, m);
+      add(at_s, m);
+      add(at_s, ++m);
     }
-    if (!d_.samples.empty() && d_.samples.back().time_s > t0_s_) {
-      pd.x.push_back(hours(d_.samples.back().time_s));
-      pd.y.push_back(probing::productivity_percent(m, d_.samples.back().time_s - t0_s_));
-    }
+    for (; next_column <= columns; ++next_column) add(static_cast<double>(next_column) * column_s, m);
     p.series = {std::move(pd)};
     page_.chart(p);
   }
@@ -435,13 +474,20 @@ void study_section(const std::filesystem::path& file, const storage::StudyHeader
   const study::Analysis a = study::analyse(info, rows);
   const study::FiguresRendered figures = study::render_figures(info, rows, a, std::nullopt);
   std::string& h = page.html;
+  // A grid without an interval or ng-meas axis has no heat map (a note below says so): then the
+  // text does not describe any.
+  const bool heat_maps = std::any_of(figures.figures.begin(), figures.figures.end(),
+                                     [](const study::Figure& f) { return f.name.rfind("heatmap-", 0) == 0; });
   h += "<section class=\"study\" id=\"study\">\n<h2>Study: " + std::to_string(info.sets.size()) + " parameter sets x " +
        std::to_string(info.cases.size()) + " cases</h2>\n<p>" + std::to_string(a.rows) + " of " +
        std::to_string(a.expected) + " rows present (shard " + escape_xml(info.shard) + ", " +
        escape_xml(info.software_version) + "). Per case every parameter set is a point of mean linear P99 against "
-       "Pd; the line joins the sets no other set beats on both (Pareto front); dashed: the P99 limit of Eq. 8. The "
-       "heat maps show the mean over the cases of P99 and of Pd over Post-CP interval x NG measurements at CP " +
-       escape_xml(figures.heatmap_cp) + " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
+       "Pd; the line joins the sets no other set beats on both (Pareto front); dashed: the P99 limit of Eq. 8." +
+       (heat_maps ? " The heat maps show the mean over the cases of P99 and of Pd over Post-CP interval x NG "
+                    "measurements at CP " +
+                        escape_xml(figures.heatmap_cp) +
+                        " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
+                  : std::string()) +
        "</p>\n";
   for (std::size_t ci = 0; ci < a.cases.size(); ++ci)
     if (const auto& ca = a.cases[ci]; ca.optimum)
@@ -465,13 +511,13 @@ table{border-collapse:collapse;margin:6px 0;font-size:13px}td,th{border:1px soli
 td:first-child,th:first-child,.parameters td{text-align:left}
 figure.chart{margin:8px 0 14px}svg.alc-chart{display:block;background:#fff}
 svg.alc-chart text{font:11px system-ui,sans-serif;fill:#333}svg.alc-chart .chart-title{font-size:13px;font-weight:600}
-svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .grid{stroke:#e4e4e4;stroke-width:1}svg.alc-chart .frame{fill:none;stroke:#888}
+svg.alc-chart .axis-label{font-size:12px}svg.alc-chart .no-data{font-size:13px;fill:#888}svg.alc-chart .grid{stroke:#e4e4e4;stroke-width:1}svg.alc-chart .frame{fill:none;stroke:#888}
 svg.alc-chart .span-CP{fill:#dbe9f7}svg.alc-chart .span-NG{fill:#f9d6d5}svg.alc-chart .span-Post-CP{fill:none}
 svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
-svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
+svg.alc-chart .marker-ticks{opacity:.9;stroke-dasharray:none}svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
 svg.alc-chart path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
-svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}
+svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}svg.alc-chart path.dotted{stroke-dasharray:2 3}
 figcaption.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
 .legend i{display:inline-block;width:14px;height:4px;margin-right:5px;vertical-align:middle}
 .legend .key-points i{width:7px;height:7px;border-radius:50%}.legend i.hband-key{background:#ffe8c2;height:10px}

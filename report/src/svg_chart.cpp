@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string_view>
+
+#include "common/utf8.hpp"
 
 namespace alc::report {
 
@@ -22,6 +25,24 @@ std::string tick_text(double v, double step) {
     ++decimals;
   if (std::fabs(v) < step * 1e-9) v = 0.0;  // no "-0"
   return num(v, decimals);
+}
+
+const char* dash_class(Series::Dash d) {
+  switch (d) {
+    case Series::Dash::Dashed: return " dashed";
+    case Series::Dash::Dotted: return " dotted";
+    default: return "";
+  }
+}
+
+// A legend key: the colour, with the line's pattern as gaps (the same dash and gap lengths).
+std::string key_background(const Series& s) {
+  const std::string c = escape_xml(s.color);
+  switch (s.dash) {
+    case Series::Dash::Dashed: return "repeating-linear-gradient(90deg," + c + " 0 6px,transparent 6px 10px)";
+    case Series::Dash::Dotted: return "repeating-linear-gradient(90deg," + c + " 0 2px,transparent 2px 5px)";
+    default: return c;
+  }
 }
 
 const char* style_name(Series::Style s) {
@@ -49,9 +70,14 @@ std::pair<double, double> x_domain(const Chart& c) {
 }  // namespace
 
 std::string escape_xml(const std::string& text) {
+  // The page says it is UTF-8: bytes that are not (a channel name, a message or a file name from
+  // outside) are shown as \xNN, never copied raw into it.
+  const std::string valid =
+      common::invalid_utf8_at(text) == std::string_view::npos ? std::string() : common::valid_utf8(text);
+  const std::string& from = valid.empty() ? text : valid;
   std::string out;
-  out.reserve(text.size());
-  for (char ch : text) {
+  out.reserve(from.size());
+  for (char ch : from) {
     switch (ch) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;
@@ -223,7 +249,23 @@ std::string render_svg(const Chart& c) {
     std::vector<const Marker*> in_range;
     for (const auto& m : c.markers)
       if (m.kind == kind && m.x >= x0 && m.x <= x1) in_range.push_back(&m);
-    const double top = kind == "sent" ? pb - 8.0 : pt;  // a command sent: a tick on the time axis
+    const bool bottom = kind == "sent";  // a command sent: a tick on the time axis
+    const double top = bottom ? pb - 8.0 : pt;
+    if (static_cast<double>(in_range.size()) * kMarkerMinSpacingPx > pr - pl) {
+      // Too dense for lines: a tick per pixel column that holds any (at its centre, crisp).
+      std::vector<double> columns;
+      for (const Marker* m : in_range) columns.push_back(std::floor(X(m->x)) + 0.5);
+      std::sort(columns.begin(), columns.end());
+      columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+      const double y0 = bottom ? pb - kMarkerTickPx : pt, y1 = bottom ? pb : pt + kMarkerTickPx;
+      std::string d;
+      for (double x : columns) d.append("M").append(num(x)).append(" ").append(num(y0)).append("V").append(num(y1));
+      o += "<path class=\"marker marker-" + escape_xml(kind) + " marker-ticks\" data-markers=\"" +
+           std::to_string(in_range.size()) + "\" data-columns=\"" + std::to_string(columns.size()) + "\" d=\"" + d +
+           "\"><title>" + std::to_string(in_range.size()) + " x " + escape_xml(kind) + " (too dense for lines: a tick " +
+           "per pixel column at the " + (bottom ? "bottom" : "top") + " edge)</title></path>\n";
+      continue;
+    }
     if (in_range.size() <= kMarkersAsLines) {
       for (const Marker* m : in_range)
         o += "<line class=\"marker marker-" + escape_xml(kind) + "\" x1=\"" + num(X(m->x)) + "\" x2=\"" +
@@ -238,12 +280,16 @@ std::string render_svg(const Chart& c) {
          "</title></path>\n";
   }
   const auto buckets = static_cast<std::size_t>(std::max(1.0, pr - pl));
+  std::size_t drawn_total = 0;  // points of every series
   for (const auto& s : c.series) {
     std::string d;
     std::size_t points = 0;
     bool pen = false;  // a point was drawn and the next one connects to it
     for (std::size_t i : minmax_downsample(s.x, s.y, x0, x1, buckets)) {
       if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+        // A step's value holds until the next point, so a NaN point (a probe interval of inf: no more
+        // probing) ends the run before it at its x, not at the last finite point.
+        if (s.style == Series::Style::Step && pen && std::isfinite(s.x[i])) d.append("H").append(num(X(s.x[i])));
         pen = false;
         continue;
       }
@@ -260,16 +306,21 @@ std::string render_svg(const Chart& c) {
       }
       pen = true;
     }
+    drawn_total += points;
     if (s.style == Series::Style::Step && pen) d.append("H").append(num(pr));  // the last value holds to the end
-    o += "<path class=\"series series-" + std::string(style_name(s.style)) + (s.dashed ? " dashed" : "") +
+    o += "<path class=\"series series-" + std::string(style_name(s.style)) + dash_class(s.dash) +
          "\" data-name=\"" + escape_xml(s.name) + "\" data-style=\"" + style_name(s.style) + "\" data-points=\"" +
          std::to_string(points) + "\" data-source-points=\"" + std::to_string(std::min(s.x.size(), s.y.size())) +
          "\" stroke=\"" + escape_xml(s.color) + "\" d=\"" + d + "\"><title>" + escape_xml(s.name) + "</title></path>\n";
   }
+  // A chart with nothing to draw says so: an empty frame reads like a drawing that failed.
+  if (drawn_total == 0)
+    o += "<text class=\"no-data\" x=\"" + num((pl + pr) / 2) + "\" y=\"" + num((pt + pb) / 2) +
+         "\" text-anchor=\"middle\">no data</text>\n";
   o += "</g>\n</svg>\n<figcaption class=\"legend\">";
   for (const auto& s : c.series)
     o += "<span class=\"key key-" + std::string(style_name(s.style)) + "\"><i style=\"background:" +
-         escape_xml(s.color) + "\"></i>" + escape_xml(s.name) + "</span>";
+         key_background(s) + "\"></i>" + escape_xml(s.name) + "</span>";
   for (const auto& b : c.hbands) o += "<span class=\"key\"><i class=\"hband-key\"></i>" + escape_xml(b.label) + "</span>";
   o += "</figcaption>\n</figure>\n";
   return o;

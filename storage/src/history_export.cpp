@@ -185,7 +185,12 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
   sql += std::string(" FROM ") + spec->table + " ORDER BY " + spec->order;
   Statement st(*db, sql);
   std::vector<std::string> cells;
+  // The row's time, to name a damaged row (every table with vectors has one).
+  const auto time_column = std::find_if(spec->columns.begin(), spec->columns.end(),
+                                        [](const Column& c) { return std::string_view(c.sql) == "time_s"; });
+  std::int64_t row = 0;
   while (st.step()) {
+    ++row;
     const std::int64_t run = st.column_int(0);
     first = true;
     for (std::size_t i = 0; i < spec->columns.size(); ++i) {
@@ -215,8 +220,20 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
         case Cell::Vector: {
           const ChannelMap& map = channels[c.channel];
           cells.assign(map.names.size(), std::string());
-          const std::vector<double> values = detail::decode_f64(st.column_blob(col));
           const auto slots = map.slot.find(run);
+          // A blob of another length than the run's channels is refused as the reader refuses it:
+          // exported as the values it seemed to hold, a damaged row would look like data.
+          const std::vector<double> values = detail::decode_f64(
+              st.column_blob(col), slots == map.slot.end() ? detail::kAnyCount : slots->second.size(),
+              std::string(c.channel) + "s", path, [&] {
+                const std::string time =
+                    time_column == spec->columns.end()
+                        ? std::string()
+                        : ", time_s " + detail::format_double(
+                                            st.column_double(static_cast<int>(time_column - spec->columns.begin()) + 1));
+                return std::string(spec->table) + ": row " + std::to_string(row) + " (run " + std::to_string(run) +
+                       time + "): " + c.sql;
+              });
           for (std::size_t k = 0; slots != map.slot.end() && k < values.size() && k < slots->second.size(); ++k)
             cells[static_cast<std::size_t>(slots->second[k])] = detail::format_double(values[k]);
           for (const auto& cell : cells) {

@@ -18,6 +18,18 @@ struct HistoryReader::Impl {
   std::unique_ptr<Database> db;
   int version = 0;
 
+  // The number of the run's channels of each kind, which every vector of its rows holds
+  // (detail::kAnyCount for a run not on record).
+  struct Counts {
+    std::size_t inputs = detail::kAnyCount, outputs = detail::kAnyCount, offsets = detail::kAnyCount;
+  };
+  Counts counts(RunId run) const {
+    const auto runs = detail::query_runs(*db, run);
+    if (runs.empty()) return {};
+    const RunRecord& r = runs.front();
+    return {r.input_names.size(), r.output_names.size(), r.offset_names.size()};
+  }
+
   // Runs `sql` with ?1 = run and calls `row` for every result row.
   template <class Row>
   void each(const char* sql, RunId run, Row&& row) const {
@@ -58,30 +70,62 @@ std::optional<RunRecord> HistoryReader::latest_unfinished_run() const {
 
 std::vector<InputSampleRecord> HistoryReader::input_samples(RunId run) const {
   std::vector<InputSampleRecord> out;
+  const auto n = impl_->counts(run);
   impl_->each("SELECT sample_index, time_s, values_f64 FROM input_samples WHERE run_id = ?1 ORDER BY sample_index",
               run, [&](Statement& st) {
-                out.push_back({run, st.column_int(0), st.column_double(1), detail::decode_f64(st.column_blob(2))});
+                const std::int64_t index = st.column_int(0);
+                const double time_s = st.column_double(1);
+                const auto where = [&] {
+                  return "input_samples: run " + std::to_string(run) + ", sample " + std::to_string(index) +
+                         " (time_s " + detail::format_double(time_s) + "): values_f64";
+                };
+                out.push_back({run, index, time_s,
+                               detail::decode_f64(st.column_blob(2), n.inputs, "inputs", impl_->file, where)});
               });
   return out;
 }
 
 std::vector<ProbeMeasurementRecord> HistoryReader::probe_measurements(RunId run) const {
   std::vector<ProbeMeasurementRecord> out;
-  impl_->each("SELECT time_s, phase, measured_f64, compensation_f64, weight FROM probe_measurements "
+  const auto n = impl_->counts(run);
+  impl_->each("SELECT time_s, phase, measured_f64, compensation_f64, weight, probe_id FROM probe_measurements "
               "WHERE run_id = ?1 ORDER BY probe_id",
               run, [&](Statement& st) {
-                out.push_back({run, st.column_double(0), st.column_text(1), detail::decode_f64(st.column_blob(2)),
-                               detail::decode_f64(st.column_blob(3)), st.column_double(4)});
+                const double time_s = st.column_double(0);
+                const auto where = [&](const char* column) {
+                  return [&st, run, time_s, column] {
+                    return "probe_measurements: run " + std::to_string(run) + ", probe_id " + st.column_text(5) +
+                           " (time_s " + detail::format_double(time_s) + "): " + column;
+                  };
+                };
+                out.push_back({run, time_s, st.column_text(1),
+                               detail::decode_f64(st.column_blob(2), n.outputs, "outputs", impl_->file,
+                                                  where("measured_f64")),
+                               detail::decode_f64(st.column_blob(3), n.outputs, "outputs", impl_->file,
+                                                  where("compensation_f64")),
+                               st.column_double(4)});
               });
   return out;
 }
 
 std::vector<PredictionRecord> HistoryReader::predictions(RunId run) const {
   std::vector<PredictionRecord> out;
-  impl_->each("SELECT time_s, predicted_f64, offsets_f64 FROM predictions WHERE run_id = ?1 ORDER BY prediction_id",
+  const auto n = impl_->counts(run);
+  impl_->each("SELECT time_s, predicted_f64, offsets_f64, prediction_id FROM predictions WHERE run_id = ?1 "
+              "ORDER BY prediction_id",
               run, [&](Statement& st) {
-                out.push_back({run, st.column_double(0), detail::decode_f64(st.column_blob(1)),
-                               detail::decode_f64(st.column_blob(2))});
+                const double time_s = st.column_double(0);
+                const auto where = [&](const char* column) {
+                  return [&st, run, time_s, column] {
+                    return "predictions: run " + std::to_string(run) + ", prediction_id " + st.column_text(3) +
+                           " (time_s " + detail::format_double(time_s) + "): " + column;
+                  };
+                };
+                out.push_back({run, time_s,
+                               detail::decode_f64(st.column_blob(1), n.outputs, "outputs", impl_->file,
+                                                  where("predicted_f64")),
+                               detail::decode_f64(st.column_blob(2), n.offsets, "offsets", impl_->file,
+                                                  where("offsets_f64"))});
               });
   return out;
 }

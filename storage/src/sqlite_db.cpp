@@ -546,13 +546,22 @@ std::string encode_f64(const std::vector<double>& values) {
   return bytes.take();
 }
 
-// Trailing bytes short of a whole value are ignored.
-std::vector<double> decode_f64(std::string_view bytes) {
-  common::ByteReader reader(bytes.substr(0, bytes.size() / 8 * 8), "f64 blob");
+std::vector<double> decode_whole_f64(std::string_view bytes) {
+  common::ByteReader reader(bytes, "f64 blob");
   std::vector<double> values;
   values.reserve(bytes.size() / 8);
   while (!reader.done()) values.push_back(reader.f64());
   return values;
+}
+
+StorageError f64_length_error(const std::filesystem::path& file, const std::string& where, std::size_t bytes,
+                              std::size_t count, const std::string& channels) {
+  return StorageError(StorageErrorKind::Corrupt, file,
+                      where + " holds " + std::to_string(bytes) + (bytes == 1 ? " byte" : " bytes") + ", not " +
+                          (count == kAnyCount ? std::string("a whole number of 8-byte values")
+                                              : std::to_string(8 * count) + " (the run's " + std::to_string(count) +
+                                                    " " + channels + ", 8 bytes each)") +
+                          ": a damaged row (alc db check lists such rows)");
 }
 
 // NaN is an empty cell (NULL-like), infinities are "inf" / "-inf", -0 stays "-0".

@@ -121,7 +121,29 @@ std::unique_ptr<Database> open_for_writing(const std::filesystem::path& file, co
 
 // Vectors of doubles as little-endian IEEE-754 bytes (8 per value), exact.
 std::string encode_f64(const std::vector<double>& values);
-std::vector<double> decode_f64(std::string_view bytes);
+
+// A count for decode_f64 that judges only whole values (the row's run has no channels on record).
+inline constexpr std::size_t kAnyCount = static_cast<std::size_t>(-1);
+
+// The error for a blob of `bytes` bytes where `count` values of the run's `channels` belong:
+// Corrupt, naming the file, `where` (table, row, column) and the length.
+StorageError f64_length_error(const std::filesystem::path& file, const std::string& where, std::size_t bytes,
+                              std::size_t count, const std::string& channels);
+
+// The values of a blob of whole values (its length a multiple of 8).
+std::vector<double> decode_whole_f64(std::string_view bytes);
+
+// The `count` values of a vector blob of `file`. A blob of another length (not 8 x count; with
+// kAnyCount, not a whole number of values) is a damaged row and refused: read as fewer values it was
+// used as zero inputs, or missing channels, without a word (a sample's 2-byte blob moved the P99 of
+// the report's baseline from 7.53 to 32.41 µm). where() names the row, built only for the error.
+template <class Where>
+std::vector<double> decode_f64(std::string_view bytes, std::size_t count, const std::string& channels,
+                               const std::filesystem::path& file, Where&& where) {
+  if (bytes.size() % 8 != 0 || (count != kAnyCount && bytes.size() != 8 * count))
+    throw f64_length_error(file, where(), bytes.size(), count, channels);
+  return decode_whole_f64(bytes);
+}
 
 // Shortest text that reads back to the same double; "inf", "-inf"; "" for NaN.
 std::string format_double(double value);

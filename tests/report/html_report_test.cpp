@@ -4,10 +4,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <sqlite3.h>
 #include <string>
 
 #include "../cli_support.hpp"
+#include "common/utf8.hpp"
 #include "report/run_data.hpp"
+#include "report/svg_chart.hpp"
 #include "report_test_support.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/storage_error.hpp"
@@ -150,6 +153,12 @@ TEST_CASE("alc report: writes the page - not a history - a missing file or an un
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("missing.sqlite") != std::string::npos);
 
+  // An empty --out: before, "cannot rename '.tmp.NNN.0' into place".
+  r = alc_test::run_alc("report \"" + h.db.string() + "\" --out ''", "report_cli");
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--out: '' is not a file name") != std::string::npos);
+  CHECK(r.err.find("rename") == std::string::npos);
+
   r = alc_test::run_alc("report \"" + h.db.string() + "\" --run x", "report_cli");
   CHECK(r.exit_code == 2);
   // The strict reader of whole numbers: not "0x10" as run 16, not a huge number clamped.
@@ -190,4 +199,49 @@ TEST_CASE("report of a study file: the study's Pareto front of each case and its
     CHECK(html.find(text.substr(text.find("<svg"))) != std::string::npos);
   }
   CHECK(files == 3);
+}
+
+TEST_CASE("bytes that are not UTF-8 in the database or the file name are escaped, never copied raw into the page",
+          "[report][html]") {
+  // The page is declared utf-8; a run's source, a channel name or the file's name with a stray byte
+  // went into it as is.
+  const test::Scratch scratch("utf8");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const auto file = dir / "history-\xff.sqlite";
+  std::filesystem::copy_file(h.db, file);
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(file.c_str(), &db) == SQLITE_OK);
+  CHECK(sqlite3_exec(db,
+                     "UPDATE runs SET source = CAST(X'636173652041FE42' AS TEXT);"  // "case A\xFEB"
+                     "UPDATE run_channels SET name = CAST(X'545F454E56FF' AS TEXT) "  // "T_ENV\xFF"
+                     "WHERE kind = 'input' AND channel_index = 0;",
+                     nullptr, nullptr, nullptr) == SQLITE_OK);
+  sqlite3_close(db);
+  const std::string html = html_report(file, {});
+  CHECK(common::invalid_utf8_at(html) == std::string::npos);
+  CHECK(html.find("case A\\xFEB") != std::string::npos);
+  CHECK(html.find("data-name=\"T_ENV\\xFF\"") != std::string::npos);
+  CHECK(html.find("<title>ALC report: history-\\xFF.sqlite</title>") != std::string::npos);
+  CHECK(escape_xml("a\xc3\xa9 <\xc3>") == "a\xc3\xa9 &lt;\\xC3&gt;");  // é kept, a cut sequence escaped
+}
+
+TEST_CASE("report of a study whose grid has no heat map: the page does not describe heat maps", "[report][html][cli]") {
+  const test::Scratch scratch("study-no-heatmap");
+  const auto dir = scratch.dir / "no-heatmap";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "grid.toml") << "cp = [6.5]\ninterval = [2, 8]\n";  // no ng-meas axis
+  const auto db = dir / "study.sqlite";
+  const auto r = alc_test::run_alc("study --grid \"" + (dir / "grid.toml").string() + "\" --case A --quiet --db \"" +
+                                       db.string() + "\"",
+                                   "report_study_no_heatmap");
+  REQUIRE(r.exit_code == 0);
+  ReportStats stats;
+  const std::string html = html_report(db, {}, &stats);
+  CHECK(stats.figures == 1);  // the Pareto figure of case A only
+  CHECK(html.find("no heat map: the grid has no &#39;ng-meas&#39; axis") != std::string::npos);
+  CHECK(html.find("The heat maps show") == std::string::npos);  // said so before
+  // With heat maps the text is there (the study of the other test).
+  const auto with = test::small_study(scratch.dir, "report_study_no_heatmap");
+  CHECK(html_report(with, {}).find("The heat maps show the mean over the cases") != std::string::npos);
 }

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <nlohmann/json.hpp>
+#include <sqlite3.h>
 #include <string>
 #include <vector>
 
@@ -165,4 +166,38 @@ TEST_CASE("a run without stored indicators: the report shows the probe-based one
     CHECK(shown.at("outputs").at(o.name).at("measurements") == o.measurements);
     CHECK(o.measurements < h.replay.outputs.front().measurements);
   }
+}
+
+TEST_CASE("stored indicators that cannot be read: the page says so, not that none are stored, and shows the "
+          "probe-based ones",
+          "[report][html]") {
+  const test::Scratch scratch("unreadable");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  const auto page_says = [&](const std::string& why) {
+    const std::string html = html_report(h.db, {});
+    INFO(why);
+    CHECK(page_indicators(html).at("source") == "probes");
+    CHECK(html.find("<h3>Indicators (from the probes of this history)</h3>") != std::string::npos);
+    // Before: "This history stores no indicators of the run (a supervisor run, … or a file written
+    // before schema version 5)", which was false.
+    CHECK(html.find("stores no indicators") == std::string::npos);
+    CHECK(html.find("The indicators stored for this run cannot be read (" + why + "), so those shown are computed "
+                    "from its probes") != std::string::npos);
+  };
+  {
+    // JSON, but not the document alc replay --json prints (the writer takes any JSON).
+    storage::HistoryWriter writer(h.db);
+    (void)writer.resume_run(h.run);
+    writer.store_indicators({h.run, R"({"Pd": 98.5})", 0.0});
+    writer.end_run(h.run, storage::RunStatus::Finished);
+  }
+  page_says("run_indicators.report_json is not a JSON object with &quot;outputs&quot;");
+  // Not JSON at all (a damaged row; alc db check reports it).
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(h.db.c_str(), &db) == SQLITE_OK);
+  CHECK(sqlite3_exec(db, "UPDATE run_indicators SET report_json = '{\"outputs\": {'", nullptr, nullptr, nullptr) ==
+        SQLITE_OK);
+  sqlite3_close(db);
+  page_says("run_indicators.report_json is not JSON");
 }

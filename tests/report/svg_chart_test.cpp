@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
@@ -137,4 +138,93 @@ TEST_CASE("markers: a line with its tooltip each up to the limit - beyond it one
   // The other kind keeps its own line and tooltip.
   CHECK(test::count(many, "<line class=\"marker marker-refused\"") == 1);
   CHECK(many.find("refused: too large") != std::string::npos);
+}
+
+TEST_CASE("render_svg: a step series draws its value up to a NaN point (probe interval inf) - a gap after it",
+          "[report][svg]") {
+  // alc replay --interval inf: 5 min from 0 h, inf (NaN on the chart) at the end of CP, 6.5 h. Before,
+  // the path was "M72.0 …" alone: the NaN point lifted the pen without drawing the run to it.
+  Chart c;
+  c.id = "interval";
+  c.width = 960;
+  c.x_range = std::make_pair(0.0, 192.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  c.series.push_back({"probe interval", "#2ca02c", Series::Style::Step, {0.0, 6.5}, {5.0, nan}});
+  const auto path_of = [](const std::string& svg) {
+    const std::string open = "data-name=\"probe interval\"";
+    const auto at = svg.find(" d=\"", svg.find(open));
+    return svg.substr(at + 4, svg.find('"', at + 4) - at - 4);
+  };
+  const double x65 = kMarginLeft + 6.5 / 192.0 * (960 - kMarginLeft - kMarginRight);
+  char end[32];
+  std::snprintf(end, sizeof end, "H%.1f", x65);
+  std::string d = path_of(render_svg(c));
+  INFO(d);
+  CHECK(d.rfind("M72.0 ", 0) == 0);
+  CHECK(d.substr(d.size() - std::string(end).size()) == end);  // drawn to 6.5 h, not on to the end
+  CHECK(test::count(d, "M") == 1);
+  // Probing again after a gap: a new piece from the next finite point, held to the end of the plot.
+  c.series[0].x.push_back(100.0);
+  c.series[0].y.push_back(120.0);
+  d = path_of(render_svg(c));
+  INFO(d);
+  CHECK(d.find(std::string(end) + "M") != std::string::npos);
+  CHECK(test::count(d, "M") == 2);
+  CHECK(d.substr(d.size() - 6) == "H944.0");
+}
+
+TEST_CASE("markers too dense for lines (a 90-day run's model updates): a tick per pixel column at the top edge",
+          "[report][svg]") {
+  // 90 days, an update about every 2 h (1077 in the 90-day history of docs/report.md): as lines they
+  // filled every pixel column of each error chart, which turned solid green.
+  const auto chart_with = [](std::size_t updates, const std::string& kind) {
+    Chart c;
+    c.id = "dense";
+    c.x_range = std::make_pair(0.0, 2160.0);
+    c.series.push_back({"s", "#000", Series::Style::Line, {0.0, 2160.0}, {0.0, 1.0}});
+    for (std::size_t i = 0; i < updates; ++i)
+      c.markers.push_back({2160.0 * static_cast<double>(i) / static_cast<double>(updates), kind, "m"});
+    return render_svg(c);
+  };
+  const double plot = 960 - kMarginLeft - kMarginRight, top = kMarginTop, bottom = 230 - kMarginBottom;
+  const auto path_d = [](const std::string& svg, const std::string& open) {
+    const auto at = svg.find(open);
+    REQUIRE(at != std::string::npos);
+    const auto d = svg.find(" d=\"", at) + 4;
+    return svg.substr(d, svg.find('"', d) - d);
+  };
+  const std::string dense = chart_with(1077, "update");
+  CHECK(test::count(dense, "class=\"marker marker-update") == 1);
+  const std::string open = "<path class=\"marker marker-update marker-ticks\" data-markers=\"1077\" data-columns=\"";
+  REQUIRE(dense.find(open) != std::string::npos);
+  const auto columns = std::stoul(dense.substr(dense.find(open) + open.size()));
+  CHECK(columns <= static_cast<std::size_t>(plot));
+  CHECK(columns > 800);
+  const std::string d = path_d(dense, open);
+  CHECK(test::count(d, "M") == columns);
+  // Each a tick of kMarkerTickPx from the top edge, none down to the bottom.
+  char tick[48];
+  std::snprintf(tick, sizeof tick, " %.1fV%.1f", top, top + kMarkerTickPx);
+  CHECK(test::count(d, tick) == columns);
+  CHECK(d.find("V" + std::to_string(static_cast<int>(bottom))) == std::string::npos);
+  // Commands sent: ticks at the bottom edge, as they are drawn anyway.
+  const std::string sent = chart_with(500, "sent");
+  std::snprintf(tick, sizeof tick, " %.1fV%.1f", bottom - kMarkerTickPx, bottom);
+  CHECK(test::count(path_d(sent, "<path class=\"marker marker-sent marker-ticks\""), tick) > 400);
+  // Up to one marker per kMarkerMinSpacingPx on average they stay full-height lines.
+  const auto lines = static_cast<std::size_t>(plot / kMarkerMinSpacingPx);
+  CHECK(chart_with(lines, "update").find("marker-ticks") == std::string::npos);
+  CHECK(chart_with(lines + 1, "update").find("marker-ticks") != std::string::npos);
+}
+
+TEST_CASE("render_svg: a chart with nothing to draw says 'no data'", "[report][svg]") {
+  Chart c;
+  c.id = "empty";
+  c.x_range = std::make_pair(0.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  c.series.push_back({"none", "#000", Series::Style::Line, {}, {}});
+  c.series.push_back({"gap only", "#000", Series::Style::Step, {0.5}, {nan}});
+  CHECK(test::count(render_svg(c), ">no data</text>") == 1);
+  c.series.push_back({"one point", "#000", Series::Style::Points, {0.5}, {1.0}});
+  CHECK(render_svg(c).find("no data") == std::string::npos);
 }

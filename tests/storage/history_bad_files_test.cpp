@@ -242,6 +242,80 @@ TEST_CASE("db check finds rows edited behind the writer's back that a resume or 
   CHECK_THAT(after, !Catch::Contains("samples and predictions"));
 }
 
+TEST_CASE("a vector blob of the wrong length is refused naming the table - the row - the length, not read as fewer "
+          "values",
+          "[storage]") {
+  // sqlite3 h.db "update input_samples set values_f64=X'0102' where time_s=30600": the reader took the
+  // 2 bytes as no values (trailing bytes ignored), the report used zero inputs for that sample and its
+  // P99 baseline moved from 7.53 to 32.41 um, exit 0.
+  ScratchDir dir;
+  const auto file = dir / "blobs.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());  // 3 inputs, 2 outputs, 2 offsets
+    for (int k = 0; k < 10; ++k) writer.add(test::sample_at(id, k));
+    writer.add(ProbeMeasurementRecord{id, 300.0, "CP", {1.5, 0.5}, {0.0, 0.0}, 1.0});
+    writer.add(PredictionRecord{id, 300.0, {1.0, 2.0}, {-1.0, -2.0}});
+    writer.end_run(id, RunStatus::Finished);
+  }
+  {
+    const HistoryReader reader(file);
+    REQUIRE(reader.input_samples(1).size() == 10);
+    REQUIRE(reader.probe_measurements(1).size() == 1);
+    REQUIRE(reader.predictions(1).size() == 1);
+  }
+  struct Damage {
+    std::string sql, read, restore;
+    std::vector<std::string> message;
+  };
+  const std::vector<Damage> damages = {
+      {"UPDATE input_samples SET values_f64 = X'0102' WHERE time_s = 300", "input_samples",
+       "UPDATE input_samples SET values_f64 = (SELECT values_f64 FROM input_samples WHERE sample_index = 4) "
+       "WHERE sample_index = 5",
+       {"input_samples: run 1, sample 5 (time_s 300): values_f64 holds 2 bytes, not 24 (the run's 3 inputs"}},
+      // Whole values, one short: as wrong.
+      {"UPDATE input_samples SET values_f64 = substr(values_f64, 1, 16) WHERE sample_index = 7", "input_samples",
+       "UPDATE input_samples SET values_f64 = (SELECT values_f64 FROM input_samples WHERE sample_index = 6) "
+       "WHERE sample_index = 7",
+       {"sample 7 (time_s 420): values_f64 holds 16 bytes, not 24"}},
+      {"UPDATE probe_measurements SET measured_f64 = X'00' WHERE time_s = 300", "probe_measurements",
+       "UPDATE probe_measurements SET measured_f64 = compensation_f64",
+       {"probe_measurements: run 1, probe_id 1 (time_s 300): measured_f64 holds 1 byte, not 16 (the run's 2 outputs"}},
+      {"UPDATE probe_measurements SET compensation_f64 = X''", "probe_measurements",
+       "UPDATE probe_measurements SET compensation_f64 = measured_f64",
+       {"compensation_f64 holds 0 bytes, not 16"}},
+      {"UPDATE predictions SET predicted_f64 = zeroblob(26)", "predictions",
+       "UPDATE predictions SET predicted_f64 = zeroblob(16)",
+       {"predictions: run 1, prediction_id 1 (time_s 300): predicted_f64 holds 26 bytes, not 16"}},
+      {"UPDATE predictions SET offsets_f64 = X'0000000000000000'", "predictions",
+       "UPDATE predictions SET offsets_f64 = predicted_f64",
+       {"offsets_f64 holds 8 bytes, not 16 (the run's 2 offsets, 8 bytes each)"}},
+  };
+  for (const Damage& damage : damages) {
+    INFO(damage.sql);
+    REQUIRE(RawDb(file).exec(damage.sql) == SQLITE_OK);
+    const HistoryReader reader(file);
+    const StorageError e = error_of([&] {
+      if (damage.read == "input_samples") (void)reader.input_samples(1);
+      else if (damage.read == "probe_measurements") (void)reader.probe_measurements(1);
+      else (void)reader.predictions(1);
+    });
+    INFO(e.what());
+    CHECK(e.kind == StorageErrorKind::Corrupt);
+    CHECK_THAT(e.what(), Catch::Contains(file.string()));
+    for (const std::string& part : damage.message) CHECK_THAT(e.what(), Catch::Contains(part));
+    // alc db export refuses the row too, naming it.
+    std::ostringstream csv;
+    const StorageError exported = error_of([&] { export_table_csv(file, damage.read, csv); });
+    INFO(exported.what());
+    CHECK(exported.kind == StorageErrorKind::Corrupt);
+    CHECK_THAT(exported.what(), Catch::Contains(damage.read + ": row ") && Catch::Contains(", not "));
+    CHECK_FALSE(check_history(file).ok());  // db check lists it (it did before)
+    REQUIRE(RawDb(file).exec(damage.restore) == SQLITE_OK);
+    CHECK(check_history(file).ok());
+  }
+}
+
 TEST_CASE("a writer refuses a file with a damaged page before it changes anything", "[storage]") {
   ScratchDir dir;
   const auto file = filled_history(dir, "damaged.sqlite", 3000);

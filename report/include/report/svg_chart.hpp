@@ -16,11 +16,12 @@ namespace alc::report {
 
 struct Series {
   enum class Style { Line, Points, Step };
+  enum class Dash { Solid, Dashed, Dotted };  // a line's pattern, also in its legend key
   std::string name;                 // legend text
   std::string color;                // CSS colour
   Style style = Style::Line;
   std::vector<double> x, y;         // same length; NaN in y breaks a line
-  bool dashed = false;
+  Dash dash = Dash::Solid;          // class "dashed" / "dotted" on the path
 };
 
 struct Span {                       // shaded x range (a phase)
@@ -43,6 +44,15 @@ struct Marker {                     // vertical line at x
 // more (a long run's model updates) are one <path class="marker marker-KIND" data-markers=N> with a
 // line per marker and one tooltip, so a 90-day page does not carry thousands of elements per chart.
 inline constexpr std::size_t kMarkersAsLines = 40;
+
+// Lines are drawn while the markers of a kind are this far apart on average [px] (at most 109 in a plot
+// of 872 px): denser (a 90-day run's ~1077 model updates) they covered the whole plot in their
+// colour. Then each pixel column holding markers of the kind gets one short tick of kMarkerTickPx at
+// the plot's edge (the top; the bottom for commands sent, drawn there anyway), a rug that shows where
+// and how often without hiding the data: <path class="marker marker-KIND marker-ticks"
+// data-markers=N data-columns=K>.
+inline constexpr double kMarkerMinSpacingPx = 8.0;
+inline constexpr double kMarkerTickPx = 6.0;
 
 struct Chart {
   std::string id;                   // element id (unique in the page)
@@ -79,7 +89,8 @@ std::vector<double> nice_ticks(double lo, double hi, int target, bool hours = fa
 // the svg carries data-series (number of series).
 std::string render_svg(const Chart& chart);
 
-// Text escaped for HTML/SVG content and attributes (& < > " ').
+// Text escaped for HTML/SVG content and attributes (& < > " '); a byte that is not part of well-formed
+// UTF-8 becomes the text \xNN (common::valid_utf8).
 std::string escape_xml(const std::string& text);
 
 }  // namespace alc::report
