@@ -20,10 +20,6 @@ struct ReportArgs {
 };
 
 void run_report(const ReportArgs& a) {
-  // Before the page is built; with no name the temporary file beside it could only fail to be
-  // renamed ("cannot rename '.tmp.NNN.0' into place"), which named neither the option nor the cause.
-  if (a.out.empty())
-    throw UsageError("--out: '' is not a file name; give the HTML file to write (default report.html)");
   refuse_output_over_input("--out", a.out, a.file, "the database to report");
   report::ReportOptions o;
   o.runs = a.runs;
