@@ -447,6 +447,22 @@ ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
   // The snapshot before the first sample (next_sample_index 0, sentinel time) keeps nothing of the run.
   const double t = point.snapshot.next_sample_index == 0 ? -std::numeric_limits<double>::infinity()
                                                          : point.snapshot.time_s;
+  // What the resume keeps must pair every sample with its prediction (the replay rebuilds its evaluation
+  // from them): judged before anything is deleted, so a resume that must fail changes nothing.
+  {
+    Statement kept(*m.db,
+                   "SELECT (SELECT COUNT(*) FROM input_samples WHERE run_id = ?1 AND sample_index < ?2 AND time_s <= ?3),"
+                   " (SELECT COUNT(*) FROM predictions WHERE run_id = ?1 AND time_s <= ?3),"
+                   " EXISTS (SELECT 1 FROM predictions WHERE run_id = ?1)");
+    kept.bind(1, run).bind(2, point.snapshot.next_sample_index).bind(3, t);
+    if (kept.step() && kept.column_int(2) != 0 && kept.column_int(0) != kept.column_int(1))
+      throw StorageError(StorageErrorKind::Corrupt, m.file,
+                         "run " + std::to_string(run) + " stores " + std::to_string(kept.column_int(0)) +
+                             " samples and " + std::to_string(kept.column_int(1)) +
+                             " predictions up to its snapshot " + std::to_string(point.snapshot.snapshot_id) +
+                             " (each sample is stored with its prediction): rows were deleted or damaged; nothing "
+                             "was changed ('alc db check' names the run)");
+  }
   m.insert([&] {
     // Everything after the snapshot is redone by the resumed run; table names are fixed text.
     for (const char* table : {"probe_measurements", "predictions", "model_parameter_sets", "phase_changes",

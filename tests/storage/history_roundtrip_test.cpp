@@ -344,6 +344,39 @@ TEST_CASE("resume returns the latest snapshot and drops what was written after i
   CHECK_THROWS_WITH(writer.resume_run(empty), Catch::Contains("no controller snapshot"));
 }
 
+TEST_CASE("a resume that cannot pair the samples it keeps with their predictions is refused and changes nothing",
+          "[storage]") {
+  ScratchDir dir;
+  const auto file = dir / "unpaired.sqlite";
+  RunId id = 0;
+  {
+    HistoryWriter writer(file);
+    id = writer.begin_run(test::small_run());
+    for (std::int64_t k = 0; k < 30; ++k) {
+      writer.add(test::sample_at(id, k));
+      writer.add(PredictionRecord{id, 60.0 * static_cast<double>(k), {1.0, 2.0}, {3.0, 4.0}});
+      if (k == 19) writer.save_snapshot({id, 60.0 * static_cast<double>(k), k + 1, "test/1", true, "{}"});
+    }
+    writer.end_run(id, RunStatus::Stopped);
+  }
+  REQUIRE(RawDb(file).exec("DELETE FROM input_samples WHERE sample_index = 7") == SQLITE_OK);
+  const auto rows = [&] {
+    return RawDb(file).text("SELECT (SELECT COUNT(*) FROM input_samples) || ' ' || (SELECT COUNT(*) FROM predictions)"
+                            " || ' ' || (SELECT COUNT(*) FROM controller_snapshots) || ' ' || (SELECT status FROM runs)");
+  };
+  const std::string before = rows();
+  CHECK(before == "29 30 1 stopped");
+  {
+    HistoryWriter writer(file);
+    // Before: the rows after the snapshot were deleted and the run marked running, then the replay
+    // refused it ("stores 19 samples and 20 predictions before its snapshot"), for ever.
+    CHECK_THROWS_WITH(writer.resume_run(id), Catch::Contains("run 1 stores 19 samples and 20 predictions up to its "
+                                                             "snapshot 1") &&
+                                                 Catch::Contains("nothing was changed"));
+  }
+  CHECK(rows() == before);
+}
+
 TEST_CASE("the indicators a run ends with: stored, replaced, exported, refused when not JSON, removed by a resume",
           "[storage]") {
   ScratchDir dir;
