@@ -1,17 +1,24 @@
-# Shared by scripts/main.sh and scripts/test.sh: install Debian packages if missing, configure, build.
-# Idempotent and quiet: a second run installs nothing and rebuilds only what changed.
+# shellcheck shell=bash
+# Shared by the scripts of scripts/ (main.sh, test.sh, fuzz.sh, ...): install Debian packages if missing,
+# configure, build. Idempotent and quiet: a second run installs nothing and rebuilds only what changed.
 set -euo pipefail
 
 ALC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 ALC_JOBS="${ALC_JOBS:-$(nproc)}"
 
-# Build dependencies, all from Debian 12.
+# Build dependencies, all from Debian 12 (the arrays are used by the scripts that source this file).
+# shellcheck disable=SC2034
 ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsqlite3-dev sqlite3 libspdlog-dev
               catch2 libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libmosquitto-dev libsvm-dev
               libcpp-httplib-dev)
 
 # The fuzz build (fuzz/, README "Fuzzing"): clang with libFuzzer and its sanitizer runtimes.
+# shellcheck disable=SC2034
 ALC_FUZZ_PACKAGES=(clang libclang-rt-14-dev)
+
+# Whether this script process has run `apt-get update` already: once is enough for all the
+# ensure_packages calls of a script (test.sh makes six).
+ALC_APT_UPDATED=0
 
 # ensure_packages PKG...: apt-get install the ones that are not installed yet.
 ensure_packages() {
@@ -29,7 +36,7 @@ ensure_packages() {
   # apt's chatter goes to a log that is shown only when the install fails.
   local log
   log="$(mktemp)"
-  if ! { $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq &&
+  if ! { { [ "$ALC_APT_UPDATED" = 1 ] || $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq; } &&
          $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"; } \
        >"$log" 2>&1; then
     cat "$log" >&2
@@ -37,16 +44,22 @@ ensure_packages() {
     echo "apt-get install failed: ${missing[*]}" >&2
     exit 1
   fi
+  ALC_APT_UPDATED=1
   rm -f "$log"
 }
 
-# build DIR [CMAKE_ARGS...]: configure, then build everything in DIR. The configure step runs every
-# time (quick when nothing changed), so CMAKE_ARGS that differ from the cache of an earlier run
-# take effect instead of being ignored.
+# build DIR [CMAKE_ARGS...] [-- TARGET...]: configure, then build everything in DIR (or only the
+# TARGETs). The configure step runs every time (quick when nothing changed), so CMAKE_ARGS that
+# differ from the cache of an earlier run take effect instead of being ignored.
 build() {
   local dir="$1"; shift
-  cmake -S "$ALC_ROOT" -B "$dir" -G Ninja "$@" >/dev/null
-  if ! cmake --build "$dir" -j "$ALC_JOBS" >"$dir/build.log" 2>&1; then
+  local args=() targets=()
+  while [ $# -gt 0 ]; do
+    if [ "$1" = -- ]; then shift; targets=(--target "$@"); break; fi
+    args+=("$1"); shift
+  done
+  cmake -S "$ALC_ROOT" -B "$dir" -G Ninja "${args[@]}" >/dev/null
+  if ! cmake --build "$dir" -j "$ALC_JOBS" "${targets[@]}" >"$dir/build.log" 2>&1; then
     cat "$dir/build.log" >&2
     echo "build failed in $dir" >&2
     return 1

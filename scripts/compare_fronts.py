@@ -35,27 +35,58 @@ def case_key(name):
     return (m.group(1), f"seed {m.group(2)}") if m else (base, "own")
 
 
+REQUIRED = ("case", "status", "Pd", "P99_linear")  # the columns of `alc study --csv` read here
+
+
 def rows(path):
     """Per recording, (P99, Pd, set) of the rows that ran. A set is named by its parameter values (the
     columns between `case` and `status`), not by its number, so that the rows of several grids (whose
-    numbers start at 1 each) can share one file."""
+    numbers start at 1 each) can share one file. A file that is not a study CSV, or a row whose number
+    of fields is not the header's (a file cut mid-row), ends the script with a message naming the file
+    and line."""
     by_case = defaultdict(list)
-    with open(path, newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        col = {name: i for i, name in enumerate(header)}
-        params = header[col["case"] + 1:col["status"]]
-        seen = set()
-        for row in reader:
-            r = dict(zip(header, row))  # a header repeated inside the file has status "status": left out below
-            if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
-                continue
-            k = case_key(r["case"])
-            name = " ".join(f"{p}={r[p]}" for p in params)
-            if (k, name) in seen:
-                raise SystemExit(f"{path}: the set {name} ran twice on {r['case']} (two grids with the same values?)")
-            seen.add((k, name))
-            by_case[k].append((float(r["P99_linear"]), float(r["Pd"]), name))
+    try:
+        with open(path, newline="") as f:
+            reader = csv.reader(f)
+            header = next(reader, None)
+            if not header:
+                raise SystemExit(f"{path}: empty, no header line (not a study CSV of `alc study --csv`)")
+            col = {name: i for i, name in enumerate(header)}
+            missing = [c for c in REQUIRED if c not in col]
+            if missing:
+                raise SystemExit(f"{path}:1: not a study CSV of `alc study --csv`: no column "
+                                 f"{', '.join(missing)} in its header")
+            if col["case"] > col["status"]:
+                raise SystemExit(f"{path}:1: not a study CSV of `alc study --csv`: `status` comes before `case`")
+            params = header[col["case"] + 1:col["status"]]
+            seen = set()
+            for row in reader:
+                if not row:
+                    continue  # a blank line
+                if len(row) != len(header):
+                    raise SystemExit(f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)} "
+                                     f"(a row cut short, or a file cut mid-row?)")
+                r = dict(zip(header, row))  # a header repeated inside the file has status "status": left out below
+                if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
+                    continue
+                try:
+                    p99, pd = float(r["P99_linear"]), float(r["Pd"])
+                except ValueError:
+                    raise SystemExit(f"{path}:{reader.line_num}: P99_linear {r['P99_linear']!r} or Pd {r['Pd']!r} "
+                                     f"is not a number")
+                if not (math.isfinite(p99) and math.isfinite(pd)):
+                    continue  # no point to place (as an empty cell)
+                k = case_key(r["case"])
+                name = " ".join(f"{p}={r[p]}" for p in params)
+                if (k, name) in seen:
+                    raise SystemExit(f"{path}:{reader.line_num}: the set {name} ran twice on {r['case']} "
+                                     f"(two grids with the same values?)")
+                seen.add((k, name))
+                by_case[k].append((p99, pd, name))
+    except OSError as e:
+        raise SystemExit(f"{path}: {e.strerror or e}")
+    except (csv.Error, UnicodeDecodeError) as e:
+        raise SystemExit(f"{path}: not a readable CSV file ({e})")
     return by_case
 
 
@@ -232,8 +263,12 @@ def svg(path, title, keys, ra, rb, la, lb):
         if not pts:
             continue
         pd_lo, pd_hi = math.floor(min(d for _, d, _ in pts)), math.ceil(max(d for _, d, _ in pts))
+        if pd_hi <= pd_lo:  # every Pd the same whole number (e.g. 100): a span of 1 % below it
+            pd_lo = pd_hi - 1
         best = min(p for p, _, _ in pts)
         p_lo, p_hi = math.floor(best), math.ceil(2.5 * best)  # the fronts' interesting part
+        if p_hi <= p_lo:  # a best P99 of 0 (or below): a span of 1 µm above it
+            p_hi = p_lo + 1
         X = lambda pd: x0 + (pd - pd_lo) / (pd_hi - pd_lo) * pw
         Y = lambda p: y0 + ph - (p - p_lo) / (p_hi - p_lo) * ph
         out.append(f'<rect x="{x0}" y="{y0}" width="{pw}" height="{ph}" fill="none" stroke="#888"/>')

@@ -2,17 +2,23 @@
 # Regenerates the Pareto fronts of docs/adaptive.md ("Judged on the Pareto front") in one command:
 # the paper-schedule and adaptive-schedule studies (docs/grids-{paper,adaptive}-schedule*.toml, every
 # file of a schedule) on every case (A-D, S16, H1-H5) at their own seeds and at the seeds in SEEDS
-# (default "2 3", recordings made with `alc simulate --case X --seed S`), then the comparison table
-# and one SVG per seed.
+# (default "2 3"; SEEDS= empty: the own seeds only; recordings made with `alc simulate --case X --seed
+# S`), then the comparison table and one SVG per seed.
 #
 # usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2 in the environment)
+# ALC defaults to build/release/cli/alc of this checkout, the build of scripts/main.sh (run that first;
+# this script builds nothing).
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg
 # (default OUT_DIR: build/fronts); prints the table and the run time.
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
-alc=$(realpath "${ALC:-$here/build/rel/cli/alc}")
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+alc=$(realpath -m "${ALC:-$here/build/release/cli/alc}")
+if [ ! -x "$alc" ] || [ -d "$alc" ]; then
+  echo "fronts.sh: no alc at $alc: build it with scripts/main.sh, or give ALC=path/to/alc" >&2
+  exit 2
+fi
 out=$(realpath -m "${1:-$here/build/fronts}")  # absolute: the seed studies run inside its recordings/
-seeds=${SEEDS:-2 3}
+seeds=${SEEDS-2 3}  # set but empty: the own seeds only
 jobs=${JOBS:-2}
 cases="A B C D S16 H1 H2 H3 H4 H5"
 start=$(date +%s)
@@ -28,7 +34,7 @@ for g in paper adaptive; do
   part=0
   # Every grid file of the schedule (docs/grids-adaptive-schedule.toml and -rare.toml: the same keys in
   # the same order, so their rows share one file; compare_fronts.py names a set by its values).
-  for grid in "$here"/docs/grids-$g-schedule*.toml; do
+  for grid in "$here"/docs/grids-"$g"-schedule*.toml; do
     # The cases at their own seeds, then each other seed's recordings (the case column names the file).
     for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
       part=$((part + 1))
@@ -57,4 +63,4 @@ for g in paper adaptive; do
 done
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
   --svg "$out/fronts" | tee "$out/fronts.md"
-echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own, $seeds; jobs $jobs); SVGs: $out/fronts-*.svg"
+echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"

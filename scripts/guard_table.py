@@ -5,12 +5,23 @@ Runs `alc replay --case X --seed S --json` for A-D at seeds 1-6, H1-H5 and S16 (
 seeds) once per set of extra options and prints, per recording, the mean linear P99, Pd and the
 outputs whose P99 with ALC exceeds the uncompensated P99 (by more than --tolerance).
 
-  python3 scripts/guard_table.py --alc build/rel/cli/alc --set 'no guard=--guard off' --set 'guard='
+  python3 scripts/guard_table.py --set 'no guard=--no-guard' --set 'guard (default)='
+
+--alc defaults to build/release/cli/alc of this checkout (the build of scripts/main.sh), wherever the
+script is run from.
 """
 import argparse
 import json
+import os
+import re
+import shlex
+import shutil
 import subprocess
 import sys
+from pathlib import Path
+
+# The release build of scripts/main.sh, beside this script's checkout (not relative to the cwd).
+DEFAULT_ALC = Path(__file__).resolve().parent.parent / "build" / "release" / "cli" / "alc"
 
 LINEAR = ("E_X0C", "E_Y0C", "E_Z0T", "E_R0T", "E_X", "E_Y", "E_Z")
 
@@ -21,8 +32,17 @@ def is_linear(name):
 
 def replay(alc, case, seed, extra):
     cmd = [alc, "replay", "--case", case, "--json"] + (["--seed", str(seed)] if seed is not None else []) + extra
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-    return json.loads(out)
+    text = shlex.join(cmd)
+    try:
+        run = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:  # FileNotFoundError, PermissionError, ...
+        raise SystemExit(f"{text}: {e.strerror or e}")
+    if run.returncode != 0:
+        raise SystemExit(f"{text}: {run.stderr.strip() or f'exit status {run.returncode}, no output on stderr'}")
+    try:
+        return json.loads(run.stdout)
+    except json.JSONDecodeError as e:
+        raise SystemExit(f"{text}: its output is not JSON ({e})")
 
 
 def figures(result, tolerance):
@@ -35,20 +55,36 @@ def figures(result, tolerance):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--alc", default="build/rel/cli/alc")
+    ap.add_argument("--alc", default=str(DEFAULT_ALC),
+                    help="the alc binary (default: build/release/cli/alc of this checkout, from scripts/main.sh)")
     ap.add_argument("--set", action="append", required=True,
-                    help="label=extra options (space-separated), e.g. 'guard=--guard on'")
-    ap.add_argument("--seeds", default="1,2,3,4,5,6")
+                    help="label=extra options (space-separated), e.g. 'no guard=--no-guard'; empty: the defaults")
+    ap.add_argument("--seeds", default="1,2,3,4,5,6", help="seeds of --cases, comma-separated whole numbers")
     ap.add_argument("--cases", default="A,B,C,D")
     ap.add_argument("--others", default="H1,H2,H3,H4,H5,S16", help="cases run at their own seed")
     ap.add_argument("--tolerance", type=float, default=0.0)
     ap.add_argument("--json", help="write every figure to this file")
     a = ap.parse_args()
+    # A bare name (--alc alc) is looked up on PATH, as subprocess would; a path must be there.
+    alc = shutil.which(a.alc) if "/" not in a.alc else (a.alc if os.path.isfile(a.alc) else None)
+    if alc is None:
+        hint = " (build it with scripts/main.sh, or give --alc PATH)" if a.alc == str(DEFAULT_ALC) else ""
+        ap.error(f"no alc binary at {a.alc}{hint}")
     sets = []
     for s in a.set:
-        label, _, extra = s.partition("=")
+        label, eq, extra = s.partition("=")
+        if not eq or not label:
+            ap.error(f"--set {s!r}: give LABEL=OPTIONS (OPTIONS may be empty, e.g. 'guard (default)=')")
         sets.append((label, extra.split()))
-    runs = [(c, int(s)) for c in a.cases.split(",") if c for s in a.seeds.split(",") if s]
+    seeds = [s.strip() for s in a.seeds.split(",") if s.strip()]
+    bad = [s for s in seeds if not re.fullmatch(r"[0-9]+", s)]
+    if bad:
+        ap.error(f"--seeds {a.seeds!r}: give whole numbers separated by commas, e.g. 1,2,3 "
+                 f"(not {', '.join(map(repr, bad))})")
+    cases = [c for c in a.cases.split(",") if c]
+    if cases and not seeds:
+        ap.error(f"--seeds {a.seeds!r}: no seed for --cases {a.cases} (give --cases '' to run only --others)")
+    runs = [(c, int(s)) for c in cases for s in seeds]
     runs += [(c, None) for c in a.others.split(",") if c]
     table = {}
     print("| recording | " + " | ".join(f"{l}: mean lin. P99 [µm], Pd [%]" for l, _ in sets) + " | " +
@@ -59,7 +95,7 @@ def main():
         name = case + (f" s{seed}" if seed is not None else "")
         cells, worse_cells = [], []
         for label, extra in sets:
-            r = replay(a.alc, case, seed, extra)
+            r = replay(alc, case, seed, extra)
             p99, pd, worse = figures(r, a.tolerance)
             table.setdefault(name, {})[label] = {"mean_linear_P99": p99, "Pd": pd,
                                                  "outputs": {k: [v["P99"], v["P99_uncompensated"]]

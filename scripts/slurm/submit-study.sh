@@ -5,6 +5,7 @@
 #
 # usage: submit-study.sh --out DIR [--alc PATH] [--grid paper|FILE.toml] [--case A|B|C|D|all|FILE.csv]...
 #                        [--shards N] [--cpus N] [--wait] [-- SBATCH_OPTION...]
+#        submit-study.sh --help   this text (exit 0)
 #   --out DIR     output directory, created; on a file system the compute nodes share (required)
 #   --alc PATH    the alc binary, at the same path on the compute nodes (default: $ALC, else `alc` on PATH)
 #   --grid G      paper or a TOML grid file (default paper)
@@ -20,7 +21,16 @@ set -euo pipefail
 # (Written for bash 4.2 too, as on older login nodes: an empty array is expanded as ${a[@]+"${a[@]}"}.)
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-usage() { awk 'NR >= 6 && !/^#/ { exit } NR >= 6 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}" >&2; exit 2; }
+# usage [STATUS]: the usage of the header; asked for (--help, STATUS 0) on stdout, else on stderr, exit 2.
+usage() {
+  local status="${1:-2}"
+  if [ "$status" -eq 0 ]; then
+    awk 'NR >= 6 && !/^#/ { exit } NR >= 6 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}"
+  else
+    awk 'NR >= 6 && !/^#/ { exit } NR >= 6 { sub(/^# ?/, ""); print }' "${BASH_SOURCE[0]}" >&2
+  fi
+  exit "$status"
+}
 die() { echo "submit-study.sh: $*" >&2; exit 1; }
 # abs PATH: PATH made absolute (the jobs' working directory is not necessarily this one).
 abs() { case "$1" in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
@@ -37,6 +47,7 @@ while [ $# -gt 0 ]; do
     --shards) shards="$2"; shift 2 ;;
     --cpus) cpus="$2"; shift 2 ;;
     --wait) wait=1; shift ;;
+    -h|--help) usage 0 ;;
     --) shift; sbatch_opts=("$@"); break ;;
     *) usage ;;
   esac
