@@ -51,7 +51,7 @@ struct HistoryConfig {
   storage::Durability durability = storage::Durability::Process;
   // [s] machine time: input samples and predictions older than this are deleted at each snapshot
   // (never those the controller's learning still holds); probes, models, phase changes and NC
-  // commands stay. 0: keep everything.
+  // commands stay. Must be > 0: a supervisor's storage stays bounded.
   double keep_s = 90.0 * 86400.0;
 };
 
