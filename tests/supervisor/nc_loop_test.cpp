@@ -14,6 +14,7 @@
 
 #include "../linuxcnc_sim_support.hpp"
 #include "supervisor_test_support.hpp"
+#include "common/log.hpp"
 #include "nc_interface/nc_number.hpp"
 #include "nc_interface/transports.hpp"
 #include "storage/history_reader.hpp"
@@ -507,4 +508,33 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   CHECK(taken >= 3);
   CHECK(failed >= 1);
   CHECK(h.input_samples(h.runs().back().run_id).size() == rows);
+}
+
+TEST_CASE("supervisor: an output that is no location error of the C axis is named in a warning when an NC sink is set") {
+  // A typo (E_ZOT for E_Z0T) is predicted and published, but no axis offset ever carries it: the one
+  // place that says so is this warning at start.
+  const auto warnings_of = [](const std::string& sink) {
+    const fs::path dir = temp_dir("nc-typo");
+    write(dir / "m.toml", "[nc.base.G54]\n");
+    fs::create_directories(dir / "out");
+    const auto config = supervisor::parse_supervisor_config(
+        "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_ZOT\"]\n[history]\ndb = "
+        "\"h.sqlite\"\n[nc]\nmachine = \"m.toml\"\n" + sink,
+        dir / "s.toml");
+    alc::log::Options o;
+    o.file = (dir / "log.txt").string();
+    o.to_stderr = false;
+    alc::log::configure(o);
+    {
+      RecordingBus bus;
+      const supervisor::Supervisor sup(config, bus, "test");
+    }
+    alc::log::configure({});
+    return read_text(dir / "log.txt");
+  };
+  const std::string spool = warnings_of("sink = \"spool\"\nspool_dir = \"out\"\n");
+  CHECK_THAT(spool, Catch::Contains("output E_ZOT is not a location error of the C axis") &&
+                        Catch::Contains("it is predicted, never compensated on the NC"));
+  CHECK(spool.find("output E_X0C") == std::string::npos);
+  CHECK(warnings_of("sink = \"none\"\n").find("E_ZOT") == std::string::npos);  // nothing goes to an NC
 }
