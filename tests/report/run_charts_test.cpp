@@ -109,15 +109,21 @@ std::string run(const std::string& args, const std::string& tag) {
   return r.out;
 }
 
+// `alc replay SOURCE --db D` (D = scratch/NAME.sqlite), then `alc report D`: the page's text.
+std::string replayed_page(const test::Scratch& scratch, const std::string& name, const std::string& replay_args) {
+  const auto db = scratch.dir / (name + ".sqlite"), page = scratch.dir / (name + ".html");
+  run("replay " + replay_args + " --db \"" + db.string() + "\"", "report_charts");
+  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
+  return alc_test::slurp(page);
+}
+
 }  // namespace
 
 TEST_CASE("probing stopped (--interval inf): the interval is drawn up to the end of CP",
           "[report][html][cli]") {
   const test::Scratch scratch("interval-inf");
-  const auto db = scratch.dir / "inf.sqlite", page = scratch.dir / "inf.html";
-  run("replay --case A --interval inf --db \"" + db.string() + "\"", "report_charts");
-  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
-  const std::string html = alc_test::slurp(page);
+  const std::string html = replayed_page(scratch, "inf", "--case A --interval inf");
+  const auto db = scratch.dir / "inf.sqlite";
   const storage::HistoryReader reader(db);
   const RunData d = load_run(reader, 1);
   REQUIRE(d.intervals.size() == 2);  // 5 min from the start, inf from the end of CP
@@ -136,10 +142,8 @@ TEST_CASE("probing stopped (--interval inf): the interval is drawn up to the end
 
 TEST_CASE("probing stopped (--interval inf): Pd so far is Eq. 7 between the probes too", "[report][html][cli]") {
   const test::Scratch scratch("pd-inf");
-  const auto db = scratch.dir / "inf.sqlite", page = scratch.dir / "inf.html";
-  run("replay --case A --interval inf --db \"" + db.string() + "\"", "report_charts");
-  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
-  const std::string html = alc_test::slurp(page);
+  const std::string html = replayed_page(scratch, "inf", "--case A --interval inf");
+  const auto db = scratch.dir / "inf.sqlite";
   const storage::HistoryReader reader(db);
   const RunData d = load_run(reader, 1);
   // Pd so far at 24 h and 100 h: Eq. 7 with the probes up to then (all of them in CP). Before, a
@@ -187,11 +191,9 @@ TEST_CASE("a recording that does not start at 0: CP ends on the page's time axis
 TEST_CASE("a run that never left calibration: CP shaded over the whole run - the summary says CP did not end",
           "[report][html][cli]") {
   const test::Scratch scratch("stop3");
-  const auto db = scratch.dir / "stop3.sqlite", page = scratch.dir / "stop3.html";
-  run("replay --case A --db \"" + db.string() + "\" --stop-at 3", "report_charts");
+  const std::string html = replayed_page(scratch, "stop3", "--case A --stop-at 3");
+  const auto db = scratch.dir / "stop3.sqlite";
   REQUIRE(storage::HistoryReader(db).phase_changes(1).empty());
-  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
-  const std::string html = alc_test::slurp(page);
   // Before: no span at all (no phase_changes rows), and "CP ended at never".
   CHECK(test::count(html, "class=\"span span-") == test::count(html, "class=\"span span-CP\""));
   const std::size_t outputs = storage::HistoryReader(db).run(1)->output_names.size();
@@ -207,10 +209,7 @@ TEST_CASE("a run that never left calibration: CP shaded over the whole run - the
 TEST_CASE("a chart of more lines than the palette has colours (case S16: 16 temperatures): no two look alike",
           "[report][html][cli]") {
   const test::Scratch scratch("s16");
-  const auto db = scratch.dir / "s16.sqlite", page = scratch.dir / "s16.html";
-  run("replay --case S16 --db \"" + db.string() + "\" --stop-at 10", "report_charts");
-  run("report \"" + db.string() + "\" --out \"" + page.string() + "\"", "report_charts");
-  const std::string html = alc_test::slurp(page);
+  const std::string html = replayed_page(scratch, "s16", "--case S16 --stop-at 10");
   const std::string fig = figure(html, "run1-inputs-0");
   REQUIRE(fig.find(">temperatures [°C]</text>") != std::string::npos);
   // Each line's look: its colour and its pattern (the class after "series-line"), and its legend key.
