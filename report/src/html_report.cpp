@@ -159,7 +159,7 @@ class RunSection {
         unreadable = "run_indicators.report_json is not a JSON object with \"outputs\"";
       else
         try {
-          rep = runtime::report_from_json(doc);
+          rep = runtime::report_from_json(doc, d_.run.output_names);
         } catch (const nlohmann::json::exception& e) {
           unreadable = std::string("run_indicators.report_json: ") + e.what();
         }
@@ -167,7 +167,7 @@ class RunSection {
     const bool usable = stored && unreadable.empty();
     if (!usable) {
       doc = runtime::report_json(history_indicators(d_));
-      rep = runtime::report_from_json(doc);
+      rep = runtime::report_from_json(doc, d_.run.output_names);
     }
     // One time convention on the page, the axes': hours from the run's first sample. Both documents
     // give the end of CP in the scenario's time (time_s / 3600), which differs when a recording does
@@ -177,13 +177,6 @@ class RunSection {
       rep.cp_end_s -= t0_s_;
       doc["cp_end_h"] = doc.at("cp_end_h").get<double>() - t0_s_ / 3600.0;
     }
-    // The document is keyed by output name (sorted); alc replay prints the run's channel order.
-    const auto& names = d_.run.output_names;
-    const auto position = [&](const runtime::OutputIndicators& o) {
-      return std::find(names.begin(), names.end(), o.name) - names.begin();
-    };
-    std::stable_sort(rep.outputs.begin(), rep.outputs.end(),
-                     [&](const auto& l, const auto& r) { return position(l) < position(r); });
     const auto value = [&](const nlohmann::json& j, const char* key, const std::string& text) {
       const nlohmann::json& v = j.contains(key) ? j.at(key) : nlohmann::json();
       return "<span data-key=\"" + std::string(key) + "\" data-value=\"" + escape_xml(v.dump()) + "\">" + text +
