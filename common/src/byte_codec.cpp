@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -168,6 +169,12 @@ std::uint64_t checksum64(std::string_view bytes) {
     hash *= 0x100000001b3ULL;  // FNV-1a 64 prime
   }
   return hash;
+}
+
+std::string checksum64_hex(std::string_view bytes) {
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(checksum64(bytes)));
+  return hex;
 }
 
 }  // namespace alc::common

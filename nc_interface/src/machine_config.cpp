@@ -1,6 +1,5 @@
 #include "nc_interface/machine_config.hpp"
 
-#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -209,9 +208,7 @@ MachineConfig read_machine_config(const std::filesystem::path& path) {
   std::ostringstream text;
   text << in.rdbuf();
   MachineConfig config = parse_machine_config(text.str(), path.string());
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(common::checksum64(text.str())));
-  config.content_hash = hex;
+  config.content_hash = common::checksum64_hex(text.str());
   return config;
 }
 

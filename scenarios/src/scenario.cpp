@@ -1,7 +1,5 @@
 #include "scenarios/scenario.hpp"
 
-#include <cstdio>
-
 #include "common/byte_codec.hpp"
 
 namespace alc::scenarios {
@@ -13,9 +11,7 @@ std::string content_hash(const Scenario& s) {
   w.f64_vector(s.time_s);
   w.matrix(s.inputs);
   w.matrix(s.outputs);
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(common::checksum64(w.take())));
-  return hex;
+  return common::checksum64_hex(w.take());
 }
 
 }  // namespace alc::scenarios

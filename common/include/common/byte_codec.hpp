@@ -95,4 +95,8 @@ class ByteReader {
 // cryptographic hash). checksum64("") == 0xcbf29ce484222325.
 std::uint64_t checksum64(std::string_view bytes);
 
+// checksum64(bytes) as 16 lower-case hex digits: the content hash of a recording or a machine file
+// as a run's identity stores it.
+std::string checksum64_hex(std::string_view bytes);
+
 }  // namespace alc::common
