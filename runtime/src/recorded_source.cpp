@@ -28,7 +28,10 @@ std::optional<Sample> RecordedSource::next(double before_s) {
 
 std::optional<ProbeMeasurement> RecordedSource::probe(double due_s, const Sample& sample) {
   const auto row = static_cast<std::size_t>(sample.index);
-  if (!recorded_.is_measured(row) || recorded_.first_at_or_after(due_s) != row) return std::nullopt;
+  // The first measured row at or after the due time that reaches the controller: one it set aside (an
+  // implausible input) passes the probe on to the next measured row, not past it for the rest of the run.
+  const auto first = recorded_.first_at_or_after(due_s);
+  if (!recorded_.is_measured(row) || !first || *first > row) return std::nullopt;
   ProbeMeasurement p;
   p.time_s = sample.time_s;
   p.measured = scenario_.outputs.row(static_cast<Eigen::Index>(row)).transpose();

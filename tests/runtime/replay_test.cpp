@@ -1,5 +1,6 @@
 // Replay: probing against a recording, evaluation span, Pd, stop and resume, residual output.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -82,6 +83,41 @@ TEST_CASE("replay: a probe takes the first recorded measurement at or after its 
   CHECK(probes.times[2] == 14 * kMinute);  // due at 12 min
   CHECK(probes.times[3] == 21 * kMinute);  // due at 19 min
   for (double t : probes.times) CHECK(std::fmod(t, 7 * kMinute) == 0.0);
+}
+
+TEST_CASE("replay: a probe due on a sample the controller sets aside is taken at the next measurement") {
+  // Measurements every 5 min. An implausible temperature on a row where a probe is due sets that sample
+  // aside; the probe is taken at the next measured row instead, and probing goes on to the end (it used
+  // to stop for the rest of the run, without a word).
+  Scenario s = synthetic(5);
+  ProbeTimes reference;
+  Replay clean(s, in_memory(parameters(), &reference));
+  clean.run();
+  REQUIRE(reference.times.size() > 20);
+  for (const double at : {20 * kMinute, 0.0 /* the first post-CP probe, below */}) {
+    double bad = at;
+    if (at == 0.0)
+      for (double t : reference.times)
+        if (t > 3 * kHour) {
+          bad = t;
+          break;
+        }
+    REQUIRE(bad > 0.0);
+    Scenario faulty = s;
+    const auto row = static_cast<Eigen::Index>(bad / kMinute);
+    REQUIRE(faulty.time_s[static_cast<std::size_t>(row)] == bad);
+    faulty.inputs(row, 0) = 999.0;  // beyond the plausible +-200 degC
+    ProbeTimes probes;
+    Replay session(faulty, in_memory(parameters(), &probes));
+    session.run();
+    CAPTURE(bad);
+    CHECK(std::find(probes.times.begin(), probes.times.end(), bad) == probes.times.end());
+    CHECK(std::find(probes.times.begin(), probes.times.end(), bad + 5 * kMinute) != probes.times.end());
+    REQUIRE_FALSE(probes.times.empty());
+    // Probing continues to the end of the day as in the clean run.
+    CHECK(probes.times.back() > reference.times.back() - 2 * kHour - 10 * kMinute);
+    CHECK(probes.times.size() + 2 >= reference.times.size());
+  }
 }
 
 TEST_CASE("replay: evaluation uses every recorded measurement after CP, and Pd follows Eq. 7") {

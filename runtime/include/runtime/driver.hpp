@@ -32,7 +32,8 @@ class Source {
   virtual ~Source() = default;
   // The next sample if its time is before `before_s` (it is consumed), else nullopt (it stays).
   virtual std::optional<Sample> next(double before_s) = 0;
-  // The probe cycle due at `due_s` if it is taken at `sample` (the latest sample), else nullopt.
+  // The probe cycle due at `due_s` if it is taken at `sample` (the latest sample the controller accepted),
+  // else nullopt.
   virtual std::optional<ProbeMeasurement> probe(double due_s, const Sample& sample) = 0;
 };
 
