@@ -317,32 +317,13 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError("--residuals " + a.residuals + " is in the --nc-out directory " + a.nc_out +
                        ", whose files the NC output writes; give another path");
   }
-  // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes. And
-  // one before it begins: --since counts from scenario time 0 (a file stamped in Unix time starts at
-  // ~470,000 h), so --since 26 meant as "26 h in" would silently change nothing.
-  for (const auto& [name, scenario] : cases) {
-    if (scenario.time_s.empty()) continue;
-    const std::string what = (a.file.empty() ? "case " : "") + name;
-    if (params.learning_since_s > scenario.time_s.back())
-      throw UsageError("--since " + a.since + " h is after the end of " + what + " (its last sample is at " +
-                       common::shortest_text(scenario.time_s.back() / 3600.0) +
-                       " h of scenario time): the controller would never learn from a probe");
-    // A recording without a single measurement: the same table of dashes, and Pd 100 %.
-    if (!scenario.outputs.array().isFinite().any())
-      throw UsageError(what + " has no probe measurement (its " + std::to_string(scenario.output_names.size()) +
-                       " error columns are empty on every row): CP would not end, no model would be made and "
-                       "nothing evaluated");
-    // A CP longer than the recording: no model, nothing evaluated, a table of dashes.
-    if (scenario.time_s.front() + params.cp_duration_s > scenario.time_s.back())
-      throw UsageError("--cp " + a.cp + " h is longer than " + what +
-                       " (" + common::shortest_text((scenario.time_s.back() - scenario.time_s.front()) / 3600.0) +
-                       " h): CP would not end, no model would be made and nothing evaluated");
-    if (params.learning_since_s > 0.0 && params.learning_since_s < scenario.time_s.front())
-      throw UsageError("--since " + a.since + " h is before the first sample of " + what + " (at " +
-                       common::shortest_text(scenario.time_s.front() / 3600.0) +
-                       " h of scenario time) and would change nothing: --since counts from scenario time 0, "
-                       "not from the first sample");
-  }
+  for (const auto& [name, scenario] : cases)
+    if (const std::string why = runtime::scenario_problem(scenario, params, (a.file.empty() ? "case " : "") + name,
+                                                             {a.cp.empty() ? "the default --cp " + common::shortest_text(params.cp_duration_s / 3600.0)
+                                                                          : "--cp " + a.cp,
+                                                              "--since " + a.since});
+        !why.empty())
+      throw UsageError(why);
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;

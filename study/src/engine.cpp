@@ -6,7 +6,9 @@
 #include <thread>
 
 #include "runtime/driver.hpp"
+#include "common/number_text.hpp"
 #include "runtime/recorded_source.hpp"
+#include "runtime/replay.hpp"
 
 namespace alc::study {
 
@@ -117,12 +119,21 @@ class UnitRunner {
 
 }  // namespace
 
+// Why a valid set cannot run on a case (alc replay refuses it: a CP longer than the recording, a since
+// after its end...): an error row, not a run that never leaves CP and reads as status ok.
+std::string run_problem(const StudyCase& c, const ParameterSet& set) {
+  const auto hours = [](double s) { return common::shortest_text(s / 3600.0); };
+  return runtime::scenario_problem(c.scenario, set.parameters, c.source,
+                                   {"cp = " + hours(set.parameters.cp_duration_s),
+                                    "since = " + hours(set.parameters.learning_since_s)});
+}
+
 std::vector<Unit> plan_units(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets) {
   std::vector<Unit> units;
   for (std::size_t c = 0; c < cases.size(); ++c) {
     std::map<std::string, std::size_t> unit_of;
     for (const ParameterSet& s : sets) {
-      if (!s.error.empty()) continue;
+      if (!s.error.empty() || !run_problem(cases[c], s).empty()) continue;
       const std::string key = stage_key(s, runtime::Stage::Start, runtime::Stage::CpEnd);
       const auto [it, added] = unit_of.emplace(key, units.size());
       if (added) units.push_back({c, {}});
@@ -146,8 +157,14 @@ std::size_t shard_rows(const std::vector<StudyCase>& cases, const std::vector<Pa
   const std::vector<Unit> units = plan_units(cases, sets);
   for (std::size_t u = 0; u < units.size(); ++u)
     if (unit_in_shard(u, shard, shards)) rows += units[u].sets.size();
-  for (const ParameterSet& s : sets)
-    if (!s.error.empty() && invalid_set_in_shard(s.index, shard, shards)) rows += cases.size();
+  for (const ParameterSet& s : sets) {
+    if (!invalid_set_in_shard(s.index, shard, shards)) continue;
+    if (!s.error.empty()) {
+      rows += cases.size();
+      continue;
+    }
+    for (const StudyCase& c : cases) rows += run_problem(c, s).empty() ? 0 : 1;
+  }
   return rows;
 }
 
@@ -167,12 +184,14 @@ StudyStats run_study(const std::vector<StudyCase>& cases, const std::vector<Para
     if (!rows.empty() && options.on_rows) options.on_rows(std::move(rows));
   };
 
-  // Invalid sets: a row with the error per case, no run.
+  // Invalid sets, and valid ones a case cannot run: a row with the error per case, no run.
   std::vector<StudyRow> invalid;
   for (const ParameterSet& s : sets)
-    if (!s.error.empty() && invalid_set_in_shard(s.index, options.shard, options.shards))
-      for (std::size_t c = 0; c < cases.size(); ++c)
-        if (wanted(s.index, c)) invalid.push_back({s.index, c, s.error, std::nullopt});
+    if (invalid_set_in_shard(s.index, options.shard, options.shards))
+      for (std::size_t c = 0; c < cases.size(); ++c) {
+        const std::string why = s.error.empty() ? run_problem(cases[c], s) : s.error;
+        if (!why.empty() && wanted(s.index, c)) invalid.push_back({s.index, c, why, std::nullopt});
+      }
   deliver(std::move(invalid), StudyStats{});
 
   // Units of this shard, with the members still wanted; without sharing every set is its own unit.

@@ -89,6 +89,45 @@ TEST_CASE("a study row equals alc replay of its set bit for bit (a seeded random
   }
 }
 
+TEST_CASE("a set that alc replay refuses on a case is an error row with replay's reason, not a status-ok run") {
+  // CP 300 h on a 60-h case would never end: replay refuses it; a study row of it used to read ok with
+  // Pd 68 % and no indicator. The same for learning from after the case's end. Two cases of different
+  // length: the set runs on the long one and is an error row on the short one only.
+  std::vector<StudyCase> two = {case_a(60.0), case_a(20.0)};
+  two[1].name = "A20";
+  two[1].source = "file a20.csv";
+  const std::vector<ParameterSet> grid =
+      parse_grid("cp = [6.5, 30]\nsince = [0, 40]\n", "t.toml").sets();
+  REQUIRE(grid.size() == 4);
+  std::map<std::pair<std::size_t, std::size_t>, StudyRow> rows;
+  StudyOptions o;
+  o.on_rows = [&](std::vector<StudyRow>&& r) {
+    for (auto& row : r) REQUIRE(rows.emplace(std::make_pair(row.set, row.case_index), std::move(row)).second);
+  };
+  run_study(two, grid, o);
+  REQUIRE(rows.size() == 8);
+  CHECK(shard_rows(two, grid, 1, 1) == 8);
+  for (const ParameterSet& set : grid) {
+    INFO(set.key);
+    const double cp_h = set.parameters.cp_duration_s / 3600.0, since_h = set.parameters.learning_since_s / 3600.0;
+    for (std::size_t c = 0; c < two.size(); ++c) {
+      const StudyRow& row = rows.at({set.index, c});
+      const std::string why = runtime::scenario_problem(two[c].scenario, set.parameters, two[c].source, {"cp = x", "since = y"});
+      const bool refused = (c == 1 && (cp_h > 20.0 || since_h > 20.0));
+      CHECK(why.empty() == !refused);
+      CHECK(static_cast<bool>(row.report) == !refused);
+      if (!refused) continue;
+      // The first reason replay gives: learning after the end, then the CP.
+      CHECK(row.error.find(since_h > 20.0 ? "since = 40 h is after the end of file a20.csv"
+                                          : "cp = 30 h is longer than file a20.csv") != std::string::npos);
+    }
+  }
+  // Shards count and hold the error rows once.
+  std::size_t in_shards = 0;
+  for (int shard = 1; shard <= 3; ++shard) in_shards += shard_rows(two, grid, shard, 3);
+  CHECK(in_shards == 8);
+}
+
 TEST_CASE("shards hold every row once and equal the whole study and sharing changes no row") {
   StudyOptions whole;
   whole.jobs = 2;

@@ -48,6 +48,18 @@ struct ReplayOptions {
 // caller that runs several replays asks first, before any of them changes a history.
 std::string resume_problem(bool resume, const std::vector<BaselineKind>& baselines);
 
+// Why `parameters` cannot be replayed on `scenario` (empty if they can): a CP longer than the recording,
+// a --since after its end or before its first sample, a recording without a single measurement (CP
+// would not end, or learning would change nothing: a table of dashes). `what` names the recording
+// ("case A", "a.csv"); `cp` and `since` name the two values as the caller's user wrote them ("--cp 1e6",
+// or a grid's "cp = 300"; the text " h" follows). alc replay refuses such a run, a study makes it an
+// error row.
+struct ScenarioOptionTexts {
+  std::string cp, since;
+};
+std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParameters& parameters,
+                             const std::string& what, const ScenarioOptionTexts& texts);
+
 // The identity a replay with `options` stores (runs.config_json) and a resume must match: the
 // canonical parameters under the schedule's name, and options.identity.
 std::string replay_identity(const ReplayOptions& options);
