@@ -14,17 +14,12 @@ namespace {
 
 constexpr std::size_t kClosest = 5;
 
+// Seed 004's chosen set: its four values with every other option at replay's default (which are the
+// paper's). A grid whose [fixed] options change anything else (an ACL, the CP interval, the adaptive
+// schedule) has no such set, although one of its sets has the four values.
 std::optional<std::size_t> find_paper_set(const StudyInfo& info) {
-  runtime::OptionTexts paper = info.grid.fixed;
-  for (const auto& o : runtime::OptionTexts{{"cp", "6.5"}, {"interval", "2"}, {"ng-interval", "10"}, {"ng-meas", "12"}})
-    paper.push_back(o);
-  AlcParameters p;
-  try {
-    p = runtime::parameters_of(paper);
-  } catch (const std::invalid_argument&) {
-    return std::nullopt;
-  }
-  const auto want = runtime::canonical_parameters(p);
+  const auto want = runtime::canonical_parameters(runtime::parameters_of(
+      runtime::OptionTexts{{"cp", "6.5"}, {"interval", "2"}, {"ng-interval", "10"}, {"ng-meas", "12"}}));
   for (const ParameterSet& s : info.sets)
     if (s.error.empty() && runtime::canonical_parameters(s.parameters) == want) return s.index;
   return std::nullopt;

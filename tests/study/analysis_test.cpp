@@ -2,6 +2,7 @@
 #include <sstream>
 
 #include "study/analysis.hpp"
+#include "study/grid.hpp"
 
 using namespace alc;
 using namespace alc::study;
@@ -123,4 +124,24 @@ TEST_CASE("a study with rows missing is said to be partial before its analysis")
   print_analysis(whole_text, whole, info);
   CHECK(whole_text.str().find("PARTIAL") == std::string::npos);
   CHECK(analysis_json(whole, info)["partial"] == false);
+}
+
+TEST_CASE("seed 004's chosen set is its four values with every other option at the paper's, not under [fixed]") {
+  const std::vector<storage::StudyRowRecord> none;
+  const auto paper_set = [&](const std::string& toml) {
+    StudyInfo info;
+    info.grid = parse_grid(toml, "t.toml");
+    info.sets = info.grid.sets();
+    info.cases.push_back({"A", "", ""});
+    return analyse(info, none, 5.0).paper_set;
+  };
+  const std::string axes = "cp = [6.5, 12]\ninterval = [2, 3]\n";
+  CHECK(paper_set(axes) == std::optional<std::size_t>(0));
+  // [fixed] at the paper's values changes nothing.
+  CHECK(paper_set(axes + "[fixed]\nng-interval = 10\nacl-lin = 5\n") == std::optional<std::size_t>(0));
+  // Any other value is not seed 004's set, though one set has cp 6.5 and interval 2.
+  CHECK_FALSE(paper_set(axes + "[fixed]\nacl-lin = 50\n"));
+  CHECK_FALSE(paper_set(axes + "[fixed]\ncp-interval = 30\n"));
+  CHECK_FALSE(paper_set(axes + "[fixed]\nno-refit = true\n"));
+  CHECK_FALSE(paper_set(axes + "[fixed]\nschedule = \"adaptive\"\n"));
 }
