@@ -204,13 +204,19 @@ std::vector<BaselineKind> parse_baseline_list(std::string_view text) {
   while (start <= text.size()) {
     const std::size_t comma = std::min(text.find(',', start), text.size());
     const std::string_view name = text.substr(start, comma - start);
+    if (name == "all")
+      throw std::invalid_argument("'all' stands alone: it cannot be combined with other names ('" + std::string(text) +
+                                  "')");
     const auto kind = parse_baseline(name);
     if (!kind) {
       std::string valid;
       for (const BaselineKind k : all_baselines()) valid += std::string(baseline_name(k)) + ", ";
       throw std::invalid_argument("'" + std::string(name) + "' is not one of " + valid + "or all");
     }
-    if (std::find(kinds.begin(), kinds.end(), *kind) == kinds.end()) kinds.push_back(*kind);
+    // Refused like a value listed twice on a grid axis: a typo, not a wish for two rows.
+    if (std::find(kinds.begin(), kinds.end(), *kind) != kinds.end())
+      throw std::invalid_argument("'" + std::string(name) + "' is given twice ('" + std::string(text) + "')");
+    kinds.push_back(*kind);
     start = comma + 1;
   }
   return kinds;

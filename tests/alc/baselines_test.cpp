@@ -152,7 +152,10 @@ TEST_CASE("baselines: GM(1 N) on unequal intervals equals the numpy computation"
 
 TEST_CASE("baselines: names and lists") {
   CHECK(parse_baseline_list("all").size() == 5);
-  CHECK(parse_baseline_list("svr,mlr,svr") == std::vector<BaselineKind>{BaselineKind::Svr, BaselineKind::Mlr});
+  CHECK(parse_baseline_list("svr,mlr") == std::vector<BaselineKind>{BaselineKind::Svr, BaselineKind::Mlr});
+  CHECK_THROWS_WITH(parse_baseline_list("svr,mlr,svr"), "'svr' is given twice ('svr,mlr,svr')");
+  CHECK_THROWS_WITH(parse_baseline_list("all,mlr"), "'all' stands alone: it cannot be combined with other names ('all,mlr')");
+  CHECK_THROWS_WITH(parse_baseline_list("mlr,all"), "'all' stands alone: it cannot be combined with other names ('mlr,all')");
   try {
     parse_baseline_list("mlr,knn");
     FAIL("no exception");
