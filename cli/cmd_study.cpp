@@ -5,11 +5,13 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -129,47 +131,70 @@ std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
   return cases;
 }
 
-// Progress on stderr: a bar on a terminal, a plain line every few seconds otherwise.
+// Progress on stderr: a bar on a terminal (redrawn every 0.2 s), a plain line every 5 s otherwise, from
+// a thread of its own: a unit of many sets sharing one trunk gives its rows only at its end, and a
+// large grid's first unit may take a minute.
 class Progress {
  public:
   Progress(std::size_t total, std::size_t reused, bool quiet)
       : total_(total), done_(reused), reused_(reused), quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0),
-        start_(std::chrono::steady_clock::now()), last_(start_) {}
-  void add(std::size_t rows) {
-    done_ += rows;
-    const auto now = std::chrono::steady_clock::now();
-    const double since = std::chrono::duration<double>(now - last_).count();
-    if (quiet_ || (tty_ ? since < 0.2 : since < 5.0)) return;
-    last_ = now;
-    draw(false);
+        start_(std::chrono::steady_clock::now()) {
+    if (quiet_) return;
+    if (!tty_) draw(false);  // at once: what is to come
+    ticker_ = std::thread([this] {
+      const auto period = std::chrono::milliseconds(tty_ ? 200 : 5000);
+      std::unique_lock<std::mutex> lock(mutex_);
+      while (!stopping_)
+        if (!wake_.wait_for(lock, period, [this] { return stopping_; })) draw(false);
+    });
   }
+  ~Progress() { stop(); }
+  void add(std::size_t rows) { done_ += rows; }
   void finish() {
+    stop();
     if (!quiet_ && tty_) draw(true);
   }
   double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
 
  private:
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    if (ticker_.joinable()) ticker_.join();
+  }
   void draw(bool last) {
     const double t = elapsed();
-    const double rate = t > 0 ? static_cast<double>(done_ - reused_) / t : 0.0;
-    const double eta = rate > 0 ? static_cast<double>(total_ - done_) / rate : 0.0;
-    char line[160];
+    const std::size_t done = done_.load();
+    const double rate = t > 0 ? static_cast<double>(done - reused_) / t : 0.0;
+    char eta[32] = "-";  // no run done yet: no rate to go by
+    if (rate > 0) std::snprintf(eta, sizeof eta, "%.0f s", static_cast<double>(total_ - done) / rate);
+    char line[192];
     if (tty_) {
       const int width = 30;
-      const int filled = total_ ? static_cast<int>(width * static_cast<double>(done_) / static_cast<double>(total_)) : width;
+      const int filled = total_ ? static_cast<int>(width * static_cast<double>(done) / static_cast<double>(total_)) : width;
       std::string bar(static_cast<std::size_t>(filled), '#');
       bar.resize(width, '.');
-      std::snprintf(line, sizeof line, "\r[%s] %zu/%zu runs  %.0f runs/s  ETA %.0f s ", bar.c_str(), done_, total_,
-                    rate, eta);
+      std::snprintf(line, sizeof line, "\r[%s] %zu/%zu runs  %.0f runs/s  ETA %s ", bar.c_str(), done, total_, rate,
+                    eta);
       std::cerr << line << (last ? "\n" : "") << std::flush;
     } else {
-      std::snprintf(line, sizeof line, "study: %zu/%zu runs, %.0f runs/s, ETA %.0f s\n", done_, total_, rate, eta);
+      std::snprintf(line, sizeof line, "study: %zu/%zu runs, %.0f runs/s, ETA %s, %.0f s in\n", done, total_, rate,
+                    eta, t);
       std::cerr << line << std::flush;
     }
   }
-  std::size_t total_, done_, reused_;
+  std::size_t total_;
+  std::atomic<std::size_t> done_;
+  std::size_t reused_;
   bool quiet_, tty_;
-  std::chrono::steady_clock::time_point start_, last_;
+  std::chrono::steady_clock::time_point start_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  std::thread ticker_;
 };
 
 std::vector<storage::StudyRowRecord> sorted(std::vector<storage::StudyRowRecord> rows) {

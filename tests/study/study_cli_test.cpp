@@ -108,6 +108,8 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
                              "study_cli");
     REQUIRE(res.exit_code == 0);
     CHECK_THAT(res.err, Catch::Contains(left + " rows reused, " + std::to_string(20 - std::stoi(left)) + " computed"));
+    // Not a terminal: a progress line at once, before any run, with the rows to come (then every 5 s).
+    CHECK(res.err.rfind("study: " + left + "/20 runs, 0 runs/s, ETA -, 0 s in\n", 0) == 0);
     CHECK(slurp(csv3) == text);
   }
   SECTION("a row of a set the grid does not have: study report and report name it, db check lists it") {
