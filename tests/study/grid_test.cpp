@@ -58,6 +58,29 @@ TEST_CASE("a TOML grid is the product of its axes in file order, plus the fixed 
   CHECK(sets[0].parameters.post_cp_interval_s == 2.5 * 3600.0);
 }
 
+TEST_CASE("options that cannot change a run are left out: ng-meas 0, and the adaptive options under the paper schedule") {
+  const auto keys = [](const std::string& toml) {
+    std::vector<std::string> k;
+    for (const ParameterSet& s : parse_grid(toml, "g.toml").sets()) k.push_back(s.key);
+    return k;
+  };
+  // No NG probe: the NG interval and the confirmation are never asked; ng-interval = inf comes first.
+  CHECK(keys("ng-meas = [0, 6]\nng-interval = [10, 20]\n") ==
+        std::vector<std::string>{"ng-meas=0", "ng-meas=6 ng-interval=10", "ng-meas=6 ng-interval=20"});
+  CHECK(keys("ng-meas = [0, 6]\nng-interval = [10, \"inf\"]\nno-confirm = [true, false]\n") ==
+        std::vector<std::string>{"ng-meas=0", "ng-interval=inf", "ng-meas=6 ng-interval=10 no-confirm=true",
+                                 "ng-meas=6 ng-interval=10 no-confirm=false"});
+  // The adaptive schedule's options under the paper schedule (given or by default).
+  CHECK(keys("schedule = [\"paper\", \"adaptive\"]\nuncertainty-fraction = [0.3, 0.5]\nmin-interval = [0.5, 1]\n") ==
+        std::vector<std::string>{"schedule=paper", "schedule=adaptive uncertainty-fraction=0.3 min-interval=0.5",
+                                 "schedule=adaptive uncertainty-fraction=0.3 min-interval=1",
+                                 "schedule=adaptive uncertainty-fraction=0.5 min-interval=0.5",
+                                 "schedule=adaptive uncertainty-fraction=0.5 min-interval=1"});
+  CHECK(keys("max-interval = [4, \"inf\"]\n") == std::vector<std::string>{""});
+  CHECK(keys("max-interval = [4, \"inf\"]\n[fixed]\nschedule = \"adaptive\"\n") ==
+        std::vector<std::string>{"max-interval=4", "max-interval=inf"});
+}
+
 TEST_CASE("a bad grid names the file, line, key and value before any run") {
   CHECK(error_of("cp = [6.5, -1]\n") == "g.toml:1:12: key 'cp', value '-1': cp: '-1' is not a number > 0");
   CHECK(error_of("cp = [6.5]\nintervall = [2]\n").rfind("g.toml:2:13: 'intervall' is not a grid key", 0) == 0);
