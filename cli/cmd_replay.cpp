@@ -140,6 +140,12 @@ void print_report(std::ostream& os, const std::string& title, const runtime::Rep
         if (inputs.empty()) os << "none";
       }
     }
+    // Fewer CP measurements than parameters: the figures are those of no fit (0 or 1: it predicts 0).
+    if (const auto under = b.underdetermined(); !under.empty()) {
+      os << "; underdetermined (fewer CP measurements than its " << b.parameters << " parameters, inputs + 1):";
+      for (const auto& [output, count] : b.fitted_on)
+        if (count < b.parameters) os << " " << output << " " << count;
+    }
     os << "\n";
   }
 }

@@ -48,6 +48,13 @@ double ReplayReport::mean_p99(ErrorKind kind, bool of_baseline) const {
 
 double BaselineReport::mean_p99(ErrorKind kind) const { return mean_of(outputs, kind, &OutputIndicators::P99); }
 
+std::vector<std::string> BaselineReport::underdetermined() const {
+  std::vector<std::string> names;
+  for (const auto& [output, count] : fitted_on)
+    if (count < parameters) names.push_back(output);
+  return names;
+}
+
 double ReplayReport::mean_p99_uncompensated(ErrorKind kind) const {
   return mean_of(outputs, kind, &OutputIndicators::P99_uncompensated);
 }
@@ -152,6 +159,9 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
     b.outputs = indicators([&](std::size_t i, std::size_t k) {
       return p(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k));
     });
+    b.parameters = static_cast<int>(scenario_.input_names.size()) + 1;
+    for (std::size_t k = 0; k < n; ++k)
+      b.fitted_on.emplace_back(scenario_.output_names[k], k < model.measurements.size() ? model.measurements[k] : 0);
     if (model.kind == BaselineKind::Lasso || model.kind == BaselineKind::Ols) {
       const auto selected = model.selected_inputs();
       for (std::size_t k = 0; k < n && k < selected.size(); ++k)

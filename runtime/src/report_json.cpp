@@ -59,6 +59,11 @@ nlohmann::json report_json(const ReplayReport& r) {
   nlohmann::json& baselines = j["baselines"] = nlohmann::json::object();
   for (const BaselineReport& b : r.baselines) {
     nlohmann::json& e = baselines[b.name] = {{"outputs", outputs_json(b.outputs)}};
+    if (!b.fitted_on.empty()) {
+      nlohmann::json& fitted = e["fitted_on"] = nlohmann::json::object();
+      for (const auto& [output, count] : b.fitted_on) fitted[output] = count;
+      e["parameters"] = b.parameters;  // fitted_on below it: underdetermined (the text names those)
+    }
     if (b.selected.empty()) continue;
     nlohmann::json& selected = e["selected"] = nlohmann::json::object();
     for (const auto& [output, inputs] : b.selected) selected[output] = inputs;
@@ -75,6 +80,10 @@ ReplayReport report_from_json(const nlohmann::json& j, const std::vector<std::st
       BaselineReport b;
       b.name = name;
       b.outputs = outputs_of(e.at("outputs"), output_order);
+      if (e.contains("fitted_on")) {  // since 2026-11-26
+        for (const auto& [output, count] : e.at("fitted_on").items()) b.fitted_on.emplace_back(output, count.get<int>());
+        b.parameters = e.at("parameters").get<int>();
+      }
       if (e.contains("selected"))
         for (const auto& [output, inputs] : e.at("selected").items())
           b.selected.emplace_back(output, inputs.get<std::vector<std::string>>());
