@@ -17,6 +17,7 @@
 
 #include "alc_version.hpp"
 #include "commands.hpp"
+#include "common/log.hpp"
 #include "common/number_text.hpp"
 #include "nc_interface/dialects.hpp"
 #include "nc_interface/machine_config.hpp"
@@ -424,6 +425,14 @@ void run_replay(const ReplayArgs& a) {
                 << "); the indicators below are of that part; continue with --resume\n";
     }
     reports.emplace_back(name, replay->report());
+    // CP that never ended (every fit rejected: inputs that do not vary, say): a table of dashes, exit 0
+    // (the replay did run); the reason belongs beside it.
+    if (const runtime::ReplayReport& r = reports.back().second; !std::isfinite(r.cp_end_s) && replay->finished()) {
+      const std::string& why = replay->driver().last_rejected_fit();
+      log::get("replay")->warn("{}: CP never ended: {} fits were rejected, so no model was made and nothing was "
+                               "compensated or evaluated{}",
+                               source, r.rejected_fits, why.empty() ? std::string() : "; the last: " + why);
+    }
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());
   }
   if (reports.empty()) return;

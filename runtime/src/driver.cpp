@@ -68,8 +68,10 @@ ControllerOutput Driver::sample(const Sample& sample) {
     return out;
   }
   last_ = sample;
-  for (const ControllerEvent& e : out.events)
+  for (const ControllerEvent& e : out.events) {
+    if (e.type == ControllerEvent::Type::ModelRejected) last_rejected_fit_ = e.reason;
     if (told_at_info(e)) log_event(e);
+  }
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -86,6 +88,7 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
     return out;
   }
   for (const ControllerEvent& e : out.events) {
+    if (e.type == ControllerEvent::Type::ModelRejected) last_rejected_fit_ = e.reason;
     // A sensor fault is told once per output at warn (it may last for every probe of the run).
     const bool first_fault = e.type == ControllerEvent::Type::Implausible &&
                              std::find(implausible_logged_.begin(), implausible_logged_.end(), e.output) ==

@@ -222,6 +222,21 @@ TEST_CASE("alc replay: usage errors name the option and value") {
   CHECK(none.exit_code == 2);
   CHECK_THAT(none.err, Catch::Matchers::Contains("unmeasured.csv has no probe measurement (its 2 error columns are "
                                                  "empty on every row)"));
+  // Inputs that never vary: every fit is rejected and CP never ends. The replay runs (exit 0, a table of
+  // dashes) and says why on stderr; before, nothing said it.
+  const fs::path constant = work_dir() / "constant.csv";
+  {
+    std::ofstream f(constant);
+    f << "time_s,T_ENV,E_X0C\n";
+    for (int k = 0; k < 24 * 60; ++k) f << k * 60 << ",20," << (k % 5 == 0 ? std::to_string(0.01 * k) : "") << "\n";
+  }
+  const Run flat = alc("replay \"" + constant.string() + "\" --cp 2");
+  CHECK(flat.exit_code == 0);
+  CHECK_THAT(flat.out, Catch::Matchers::Contains("CP ended at never"));
+  CHECK_THAT(flat.err, Catch::Matchers::Contains("constant.csv: CP never ended: ") &&
+                           Catch::Matchers::Contains(" fits were rejected, so no model was made and nothing was compensated "
+                                                     "or evaluated; the last: ") &&
+                           Catch::Matchers::Contains("every input is constant over the data (T_ENV)"));
   // --residuals in the --nc-out directory, whose files the NC output writes (before: commands.jsonl was
   // replaced by the residuals, and with --db its commands still marked delivered).
   const fs::path nc = work_dir() / "nc_and_residuals";

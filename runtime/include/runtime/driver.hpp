@@ -111,6 +111,9 @@ class Driver {
   double identification_s() const { return identification_s_; }
   void set_identification_s(double s) { identification_s_ = s; }
   const std::optional<Sample>& last_sample() const { return last_; }
+  // The reason of the latest fit the controller rejected in this driver's cycles ("" if none): what a
+  // run whose CP never ended tells its user.
+  const std::string& last_rejected_fit() const { return last_rejected_fit_; }
   // A driver of a forked controller continues after the sample its parent took last.
   void continue_after(const Sample& sample) { last_ = sample; }
 
@@ -123,6 +126,7 @@ class Driver {
   std::optional<Sample> last_;
   double identification_s_ = 0.0;
   std::vector<std::string> implausible_logged_;  // outputs whose implausible reading was logged at warn
+  std::string last_rejected_fit_;
 };
 
 }  // namespace alc::runtime
