@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "../cli_support.hpp"
@@ -47,25 +49,27 @@ std::string expected_g5x(const nc::AxisOffsets& o) {
          nc::format_nc_number(o.b_deg.value_or(0.0)) + ", " + nc::format_nc_number(o.c_deg) + ")";
 }
 
-// Every axis_offsets command within max_offset, and each within max_step of the one before.
+// Every axis_offsets command within max_offset, and each within max_step of the one before, as the
+// safety gate judges them: in the values as printed (what the NC receives, nc::as_printed).
 void check_within_limits(const std::vector<nc::AxisOffsets>& sent, const nc::SafetyLimits& limits) {
   const nc::AxisOffsets zero;
+  const auto p = [](double v) { return nc::as_printed(v); };
   for (std::size_t i = 0; i < sent.size(); ++i) {
     INFO("offset command " << i + 1);
     const nc::AxisOffsets& o = sent[i];
     const nc::AxisOffsets& before = i == 0 ? zero : sent[i - 1];
-    CHECK(std::abs(o.x_mm) <= limits.max_offset.x_mm);
-    CHECK(std::abs(o.y_mm) <= limits.max_offset.y_mm);
-    CHECK(std::abs(o.z_mm) <= limits.max_offset.z_mm);
-    CHECK(std::abs(o.a_deg.value_or(0.0)) <= limits.max_offset.a_deg);
-    CHECK(std::abs(o.b_deg.value_or(0.0)) <= limits.max_offset.b_deg);
-    CHECK(std::abs(o.c_deg) <= limits.max_offset.c_deg);
-    CHECK(std::abs(o.x_mm - before.x_mm) <= limits.max_step.x_mm + 1e-12);
-    CHECK(std::abs(o.y_mm - before.y_mm) <= limits.max_step.y_mm + 1e-12);
-    CHECK(std::abs(o.z_mm - before.z_mm) <= limits.max_step.z_mm + 1e-12);
-    CHECK(std::abs(o.a_deg.value_or(0.0) - before.a_deg.value_or(0.0)) <= limits.max_step.a_deg + 1e-12);
-    CHECK(std::abs(o.b_deg.value_or(0.0) - before.b_deg.value_or(0.0)) <= limits.max_step.b_deg + 1e-12);
-    CHECK(std::abs(o.c_deg - before.c_deg) <= limits.max_step.c_deg + 1e-12);
+    CHECK(std::abs(p(o.x_mm)) <= limits.max_offset.x_mm);
+    CHECK(std::abs(p(o.y_mm)) <= limits.max_offset.y_mm);
+    CHECK(std::abs(p(o.z_mm)) <= limits.max_offset.z_mm);
+    CHECK(std::abs(p(o.a_deg.value_or(0.0))) <= limits.max_offset.a_deg);
+    CHECK(std::abs(p(o.b_deg.value_or(0.0))) <= limits.max_offset.b_deg);
+    CHECK(std::abs(p(o.c_deg)) <= limits.max_offset.c_deg);
+    CHECK(std::abs(p(o.x_mm) - p(before.x_mm)) <= limits.max_step.x_mm + 1e-12);
+    CHECK(std::abs(p(o.y_mm) - p(before.y_mm)) <= limits.max_step.y_mm + 1e-12);
+    CHECK(std::abs(p(o.z_mm) - p(before.z_mm)) <= limits.max_step.z_mm + 1e-12);
+    CHECK(std::abs(p(o.a_deg.value_or(0.0)) - p(before.a_deg.value_or(0.0))) <= limits.max_step.a_deg + 1e-12);
+    CHECK(std::abs(p(o.b_deg.value_or(0.0)) - p(before.b_deg.value_or(0.0))) <= limits.max_step.b_deg + 1e-12);
+    CHECK(std::abs(p(o.c_deg) - p(before.c_deg)) <= limits.max_step.c_deg + 1e-12);
   }
 }
 
@@ -216,6 +220,92 @@ TEST_CASE("replay NC output: every load case's linuxcnc program passes rs274 wit
     const Rs274Run r = check_rs274_applies(dir, sent);
     REQUIRE(last_interval);
     CHECK(std::abs(var_value(r.var, 3001) - std::stod(nc::format_nc_number(*last_interval))) < 1e-9);
+  }
+}
+
+TEST_CASE("replay NC output: a max_step that is not a multiple of the NC resolution is stepped in printed values, "
+          "nothing refused",
+          "[replay][nc]") {
+  // Before, the emitter stepped by max_step in computed values while the NC got them rounded to
+  // 0.0001: with max_step 0.00015 a step printed 0.0001, the next request 0.0003 was a printed change
+  // of 0.0002 > max_step, refused, and every axis stayed where it was for the rest of the run (case A:
+  // 834 commands, 829 refused, 5 written); with 0.00019 not one offset was written.
+  const sc::Scenario scenario = sc::simulate_case("A").scenario;
+  const double end_s = scenario.time_s.back();
+  const auto ticks = [](double v) { return nc::nc_ticks(v); };
+  for (const double max_step : {0.00015, 0.00019, 0.00025}) {
+    INFO("max_step " << max_step << " on every axis");
+    rt::ReplayOptions o;
+    o.machine.limits.max_step = {max_step, max_step, max_step, max_step, max_step, max_step};
+    o.nc = rt::NcOutputSetup{alc::nc::test::fresh_dir("replay_nc_fine_step"), nc::Dialect::LinuxCNC};
+    PredictionTap tap;
+    o.observers.push_back(&tap);
+    rt::Replay replay(scenario, o);
+    tap.nc = replay.nc();
+    replay.run();
+    const rt::NcCommandObserver& observer = *replay.nc();
+    REQUIRE(replay.nc_summary());
+    const nc::NcOutputSummary& s = *replay.nc_summary();
+    CHECK(observer.refused() == 0);
+    CHECK(s.refused == 0);
+    CHECK(s.split == 0);
+
+    // What is written: every printed change within max_step (from zero at the start), and offsets
+    // throughout the run, not a handful at its start.
+    std::istringstream jsonl(read_text(s.commands_file));
+    std::vector<nc::AxisOffsets> sent;
+    for (const nc::NcCommand& c : nc::read_commands_jsonl(jsonl, s.commands_file.string()))
+      if (const auto* a = std::get_if<nc::AxisOffsets>(&c)) sent.push_back(*a);
+    REQUIRE(sent.size() > 1000);
+    const long long per_step = static_cast<long long>(std::floor(max_step * 1e4 + 1e-9));  // whole ticks
+    nc::AxisOffsets before;
+    before.a_deg = 0.0;
+    for (std::size_t i = 0; i < sent.size(); ++i) {
+      INFO("offset command " << i + 1);
+      const nc::AxisOffsets& a = sent[i];
+      REQUIRE(a.a_deg.has_value());
+      for (const auto& [now, then] : {std::pair{a.x_mm, before.x_mm}, std::pair{a.y_mm, before.y_mm},
+                                      std::pair{a.z_mm, before.z_mm}, std::pair{*a.a_deg, *before.a_deg},
+                                      std::pair{a.c_deg, before.c_deg}})
+        CHECK(std::llabs(ticks(now) - ticks(then)) <= per_step);
+      before = a;
+    }
+    CHECK(*sent.back().time_s > end_s - 86400.0);
+
+    // The offsets approach the requests: each command moves every axis toward the target of its
+    // moment (compensate() of that cycle's prediction), as printed, none away from it and at least one
+    // closer; and the target is reached again and again, not only approached.
+    REQUIRE(tap.emitted.size() == sent.size());
+    nc::AxisOffsets held;  // printed offsets in force before the command (zero at the start)
+    held.a_deg = 0.0;
+    std::size_t reached = 0;
+    double last_reached_s = 0.0;
+    for (const auto& [command, prediction] : tap.emitted) {
+      INFO("command at t = " << *command.time_s << " s");
+      const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
+      const nc::AxisOffsets target =
+          nc::to_axis_offsets(kinematics::compensate(o.machine.chain, {}, errors), o.machine.chain);
+      long long closer = 0, gap = 0;
+      for (const auto& [now, then, want] :
+           {std::tuple{command.x_mm, held.x_mm, target.x_mm}, std::tuple{command.y_mm, held.y_mm, target.y_mm},
+            std::tuple{command.z_mm, held.z_mm, target.z_mm}, std::tuple{*command.a_deg, *held.a_deg, *target.a_deg},
+            std::tuple{command.c_deg, held.c_deg, target.c_deg}}) {
+        const long long after = std::llabs(ticks(now) - ticks(want)), prior = std::llabs(ticks(then) - ticks(want));
+        CHECK(after <= prior);
+        closer += prior - after;
+        gap = std::max(gap, after);
+      }
+      CHECK(closer > 0);
+      if (gap == 0) {
+        ++reached;
+        last_reached_s = *command.time_s;
+      }
+      held = command;
+    }
+    WARN("max_step " << max_step << ": " << sent.size() << " offset commands, " << reached
+                     << " of them at the target as printed, the last at " << last_reached_s / 3600.0 << " h");
+    CHECK(reached > 100);  // (most commands are steps toward a target that moved)
+    CHECK(last_reached_s > end_s - 86400.0);
   }
 }
 
