@@ -347,7 +347,8 @@ void run_replay(const ReplayArgs& a) {
     // A real machine's file must give the base that G10 L2 writes with; the built-in twin's work
     // offsets (no --machine) are zero by construction (docs/nc.md, "Base offsets").
     if (!a.machine.empty())
-      if (const std::string why = nc::missing_base(dialect, machine.nc, machine.work_offset); !why.empty())
+      if (const std::string why = nc::missing_base(dialect, machine.nc, machine.work_offset, machine.chain.tilt.name);
+          !why.empty())
         throw UsageError("--machine " + a.machine + ": " + why);
   } else if (a.dialect != "linuxcnc") {
     throw UsageError("--dialect needs --nc-out");

@@ -369,7 +369,8 @@ TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offs
   CHECK(refused.exit_code == 2);
   CHECK_THAT(refused.err, Catch::Matchers::Contains("bc.toml: linuxcnc writes G10 L2, which replaces the whole G54"));
   CHECK_FALSE(fs::exists(dir / "out" / "program.ngc"));
-  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\n");
+  write_text(dir / "bc.toml",
+             "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nb_deg = 0\nc_deg = 0\n");
   const alc_test::CliRun run = alc_test::run_alc(
       "replay --case A --nc-out \"" + (dir / "out").string() + "\" --machine \"" + (dir / "bc.toml").string() + "\"",
       "replay_cli_bc");
@@ -407,6 +408,66 @@ TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offs
   CHECK(program.find(" A") == std::string::npos);
   CHECK(program.find(" B") != std::string::npos);
   check_rs274_applies(dir / "out", sent);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("replay NC output: a machine file whose base lacks an axis, or gives the tilt axis the chain lacks, is "
+          "refused",
+          "[replay][nc][cli]") {
+  // Review: [nc.base.G54] with x_mm = -350.0 alone gave exit 0 and G10 L2 P1 X-349.9900 Y0.0100
+  // Z-0.0100 A-0.0010 C-0.0010 (the operator's Z became -0.0100); an A-C chain with b_deg = 5.0 and no
+  // a_deg wrote A-0.0010, a B-C chain with a_deg = 5.0 wrote B-0.0009.
+  const fs::path dir = alc::nc::test::fresh_dir("replay_cli_partial_base");
+  const auto replay = [&](const std::string& machine_text, const std::string& dialect) {
+    write_text(dir / "m.toml", machine_text);
+    return alc_test::run_alc("replay --case A --nc-out \"" + (dir / "out").string() + "\" --dialect " + dialect +
+                                 " --machine \"" + (dir / "m.toml").string() + "\"",
+                             "replay_cli_partial_base");
+  };
+  const std::string machine = (dir / "m.toml").string();
+  for (const char* dialect : {"linuxcnc", "fanuc"}) {
+    INFO(dialect);
+    const alc_test::CliRun partial = replay("[nc.base.G54]\nx_mm = -350.0\n", dialect);
+    CHECK(partial.exit_code == 2);
+    CHECK_THAT(partial.err, Catch::Matchers::Contains("--machine " + machine + ": [nc.base.G54] (line 1) lacks key "
+                                                      "'nc.base.G54.y_mm', 'nc.base.G54.z_mm', 'nc.base.G54.a_deg', "
+                                                      "'nc.base.G54.c_deg'") &&
+                                Catch::Matchers::Contains("G54 Y, Z, A, C would become the compensation alone"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+    // The B-C chain needs b_deg, not a_deg.
+    const alc_test::CliRun bc_partial =
+        replay("[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nc_deg = 0\n", dialect);
+    CHECK(bc_partial.exit_code == 2);
+    CHECK_THAT(bc_partial.err, Catch::Matchers::Contains("(line 3) lacks key 'nc.base.G54.b_deg':"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+  }
+  // A tilt axis the chain does not have: the machine file is refused, whatever the dialect.
+  for (const char* dialect : {"linuxcnc", "sinumerik"}) {
+    INFO(dialect);
+    const alc_test::CliRun ac_b =
+        replay("[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nb_deg = 5.0\nc_deg = 0\n", dialect);
+    CHECK(ac_b.exit_code == 2);
+    CHECK_THAT(ac_b.err, Catch::Matchers::Contains(machine + ": key 'nc.base.G54.b_deg' (line 5): the machine's chain "
+                                                   "(kinematics.chain) is A-C, which has no B axis") &&
+                             Catch::Matchers::Contains("value '5'"));
+    const alc_test::CliRun bc_a = replay(
+        "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 5.0\nc_deg = 0\n", dialect);
+    CHECK(bc_a.exit_code == 2);
+    CHECK_THAT(bc_a.err, Catch::Matchers::Contains(machine + ": key 'nc.base.G54.a_deg' (line 7): the machine's chain "
+                                                   "(kinematics.chain) is B-C, which has no A axis"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+  }
+  // Sinumerik writes no base: a partial table is not in its way.
+  CHECK(replay("[nc.base.G54]\nx_mm = -350.0\n", "sinumerik").exit_code == 0);
+  fs::remove_all(dir / "out");
+  // The complete base is accepted and written: base + compensation on every axis.
+  const alc_test::CliRun complete =
+      replay("[nc.base.G54]\nx_mm = -350.0\ny_mm = 10.0\nz_mm = -420.0\na_deg = 0.0\nc_deg = 90.0\n", "linuxcnc");
+  INFO(complete.err);
+  REQUIRE(complete.exit_code == 0);
+  CHECK(complete.err.find(" 0 refused, 0 split") != std::string::npos);
+  const std::string program = read_text(dir / "out" / "program.ngc");
+  CHECK_THAT(program, Catch::Matchers::Contains("G21 G10 L2 P1 X-349.9900 Y10.0100 Z-420.0100 A-0.0010 C89.9990"));
   fs::remove_all(dir);
 }
 
