@@ -227,6 +227,9 @@ void print_nc_summary(const std::string& source, const std::filesystem::path& di
   if (observer.not_converged())
     std::cerr << "; " << observer.not_converged() << " moments without a converged compensation";
   std::cerr << "\n";
+  for (const std::filesystem::path& old : s.removed)
+    std::cerr << source << ": removed " << old.string() << ", the program of an earlier run in another dialect (this run's is "
+              << s.program_file.string() << ")\n";
 }
 
 enum class ResumePlan { Begin, Resume, Stored };
@@ -551,7 +554,8 @@ void add_replay_command(CLI::App& app) {
                   "measurement after CP to this CSV");
   cmd->add_option("--nc-out", args->nc_out,
                   "Write the NC commands of the replay to this directory: commands.jsonl, program.<ext>, "
-                  "safety.jsonl (with --case all one subdirectory per case); see 'NC output'");
+                  "safety.jsonl (with --case all one subdirectory per case); the program of another dialect an "
+                  "earlier run left there is removed (said on stderr); see 'NC output'");
   cmd->add_option("--dialect", args->dialect, "NC dialect of --nc-out: linuxcnc, fanuc, sinumerik or heidenhain")
       ->capture_default_str();
   cmd->add_option("--machine", args->machine,

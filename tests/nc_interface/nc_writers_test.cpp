@@ -629,6 +629,32 @@ TEST_CASE("replay entry point: commands.jsonl, program and safety record", "[nc]
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("replay entry point: the program another dialect left in DIR is removed, nothing else", "[nc][recorder]") {
+  // Review: --nc-out into a directory with case A's program.ngc (linuxcnc), then case B with fanuc:
+  // DIR had B's commands.jsonl and program.nc beside A's program.ngc, and nothing said so.
+  const auto dir = alc::nc::test::fresh_dir("recorder_stale");
+  const std::vector<NcCommand> commands{offsets(0.002, 0, 0, 0, 0), ProbeInterval{10.0, {}}};
+  const NcOutputSummary first = write_replay_nc_output(dir, Dialect::LinuxCNC, commands);
+  CHECK(first.removed.empty());
+  REQUIRE(std::filesystem::exists(dir / "program.ngc"));
+  // Files that only look like ours, and a directory by a program's name, are not ALC's to remove.
+  for (const char* name : {"program.ngc.bak", "program.txt", "program2.nc", "notes.mpf", "PROGRAM.H"})
+    alc::nc::test::write_text(dir / name, "operator's\n");
+  std::filesystem::create_directories(dir / "program.mpf");
+  alc::nc::test::write_text(dir / "program.h", "0 BEGIN PGM OLD MM\n");
+  const NcOutputSummary second = write_replay_nc_output(dir, Dialect::Fanuc, commands);
+  CHECK(second.removed == std::vector<std::filesystem::path>{dir / "program.ngc", dir / "program.h"});
+  CHECK_FALSE(std::filesystem::exists(dir / "program.ngc"));
+  CHECK_FALSE(std::filesystem::exists(dir / "program.h"));
+  CHECK(std::filesystem::exists(dir / "program.nc"));
+  CHECK(std::filesystem::is_directory(dir / "program.mpf"));
+  for (const char* name : {"program.ngc.bak", "program.txt", "program2.nc", "notes.mpf", "PROGRAM.H"})
+    CHECK(alc::nc::test::read_text(dir / name) == "operator's\n");
+  // The same dialect again: its own program is replaced, nothing removed.
+  CHECK(write_replay_nc_output(dir, Dialect::Fanuc, commands).removed.empty());
+  std::filesystem::remove_all(dir);
+}
+
 namespace {
 // A sink that fails on demand: the queue must keep what it could not deliver.
 class FlakySink : public Sink {

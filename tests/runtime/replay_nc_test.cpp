@@ -471,6 +471,38 @@ TEST_CASE("replay NC output: a machine file whose base lacks an axis, or gives t
   fs::remove_all(dir);
 }
 
+TEST_CASE("replay NC output: --nc-out into a directory with another dialect's program removes it and says so",
+          "[replay][nc][cli]") {
+  // Review: case A (linuxcnc, G55, base -350) into st/, then case B with --dialect fanuc into st/: st/
+  // had B's commands.jsonl and program.nc beside A's program.ngc, and nothing warned.
+  const fs::path dir = alc::nc::test::fresh_dir("replay_cli_stale");
+  write_text(dir / "g55.toml", "[nc]\nwork_offset = \"G55\"\n[nc.base.G55]\nx_mm = -350.0\ny_mm = 0\nz_mm = 0\na_deg = 0\n"
+                               "c_deg = 0\n");
+  const std::string out = (dir / "st").string();
+  const alc_test::CliRun a = alc_test::run_alc(
+      "replay --case A --nc-out \"" + out + "\" --machine \"" + (dir / "g55.toml").string() + "\"", "replay_cli_stale");
+  REQUIRE(a.exit_code == 0);
+  CHECK(a.err.find("removed") == std::string::npos);
+  REQUIRE(fs::exists(dir / "st" / "program.ngc"));
+  write_text(dir / "st" / "notes.txt", "the operator's\n");
+  const alc_test::CliRun b = alc_test::run_alc("replay --case B --nc-out \"" + out + "\" --dialect fanuc", "replay_cli_stale");
+  INFO(b.err);
+  REQUIRE(b.exit_code == 0);
+  CHECK_THAT(b.err, Catch::Matchers::Contains("case B: removed " + (dir / "st" / "program.ngc").string() +
+                                              ", the program of an earlier run in another dialect (this run's is " +
+                                              (dir / "st" / "program.nc").string() + ")"));
+  CHECK_FALSE(fs::exists(dir / "st" / "program.ngc"));
+  const std::string program = read_text(dir / "st" / "program.nc");
+  CHECK_THAT(program, Catch::Matchers::Contains("G90 G10 L2 P1") && !Catch::Matchers::Contains("P2"));
+  CHECK(read_text(dir / "st" / "notes.txt") == "the operator's\n");  // not ALC's: left alone
+  // Nothing but commands.jsonl, program.nc, safety.jsonl and the operator's file.
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir / "st")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"commands.jsonl", "notes.txt", "program.nc", "safety.jsonl"});
+  fs::remove_all(dir);
+}
+
 TEST_CASE("replay: --machine with --db alone gives the chain of the stored offsets, and --resume must repeat it",
           "[replay][cli]") {
   const fs::path dir = alc::nc::test::fresh_dir("replay_db_machine");
