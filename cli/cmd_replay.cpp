@@ -339,6 +339,8 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError(e.what());
     }
   }
+  // The programs it writes (--nc-out, the nc_commands text of --db) name alc replay as their writer.
+  machine.nc.writer = nc::ProgramWriter::AlcReplay;
   if (!a.nc_out.empty()) {
     if (a.resume)
       throw UsageError(

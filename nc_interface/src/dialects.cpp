@@ -64,7 +64,8 @@ void linuxcnc_lines(const NcCommand& command, const DialectOptions& options, std
 }
 
 void write_linuxcnc(std::ostream& s, const std::vector<NcCommand>& commands, const DialectOptions& options) {
-  s << "(ALC thermal compensation, written by alc nc: work offsets G10 L2, probe interval #"
+  s << "(ALC thermal compensation, written by " << program_writer_name(options.writer)
+    << ": work offsets G10 L2, probe interval #"
     << options.linuxcnc_interval_parameter << " [min])\n";
   std::vector<std::string> lines;
   for (const NcCommand& c : commands) linuxcnc_lines(c, options, lines);
@@ -159,6 +160,15 @@ std::string_view dialect_name(Dialect dialect) {
     case Dialect::Heidenhain: return "heidenhain";
   }
   return "?";
+}
+
+std::string_view program_writer_name(ProgramWriter writer) {
+  switch (writer) {
+    case ProgramWriter::AlcNc: return "alc nc";
+    case ProgramWriter::AlcReplay: return "alc replay";
+    case ProgramWriter::AlcSupervise: return "alc supervise";
+  }
+  return "alc";
 }
 
 std::string_view program_extension(Dialect dialect) {

@@ -199,7 +199,7 @@ ConfigError::ConfigError(std::string file_, std::string key_, std::string value_
     : std::runtime_error(key_.empty() ? file_ + ": " + reason_  // the file itself, not a key
                                       : file_ + ": key '" + key_ + "'" +
                                             (line_ > 0 ? " (line " + std::to_string(line_) + ")" : std::string()) +
-                                            ": " + reason_ + ": value '" + value_ + "'"),
+                                            ": " + reason_ + (value_.empty() ? std::string() : ": value '" + value_ + "'")),
       file(std::move(file_)), key(std::move(key_)), value(std::move(value_)), reason(reason_), line(line_) {}
 
 MachineConfig parse_machine_config(const std::string& toml_text, const std::string& source_name) {

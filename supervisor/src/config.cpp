@@ -259,6 +259,7 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
       throw ConfigError(name, "nc.machine", "\"" + *v + "\"", e.what());
     }
   }
+  c.machine.nc.writer = nc::ProgramWriter::AlcSupervise;  // named in the spooled programs
   read_nc(n, c);
 
   if (top.table()->contains("status")) {

@@ -213,6 +213,8 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"axis_offsets","y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0})");
   CHECK(e.field == "x_mm");
   CHECK(e.reason == "missing field");
+  // No value, so no "value ''" (before: "missing field (field 'x_mm'): value ''").
+  CHECK(std::string(e.what()) == "cmds.jsonl:1: missing field (field 'x_mm')");
   e = fails(R"({"type":"probe_interval","minutes":-5})");
   CHECK(e.field == "minutes");
   CHECK(e.value == "-5");
@@ -238,6 +240,7 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"axis_offsets","x_mm":0.001,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"x_mm":0.002})");
   CHECK(e.field == "x_mm");
   CHECK(e.reason == "duplicate field");
+  CHECK(std::string(e.what()) == "cmds.jsonl:1: duplicate field (field 'x_mm')");  // before: …: value ''
   e = fails("[1,2]");
   CHECK(e.reason == "not a JSON object");
   e = fails(R"({"type":"axis_offsets","x_mm":2e6,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0})");
@@ -579,8 +582,9 @@ c_deg = 0.002
   CHECK(error("[nc]\nwork_offset = \"G54.1\"") == "m.toml: key 'nc.work_offset': must be one of G54 … G59: value '\"G54.1\"'");
   CHECK_THAT(error("[nc]\nfanuc_interval_variable = 33"), StartsWith("m.toml: key 'nc.fanuc_interval_variable'") && Contains("33"));
   CHECK_THAT(error("[kinematics]\ntilt_direction = [1, 0]"), StartsWith("m.toml: key 'kinematics.tilt_direction'"));
-  CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 1]"),
-             StartsWith("m.toml: key 'kinematics.table_direction'") && Contains("parallel"));
+  // A key not in the file (table_direction is the default here) has no value to show: no "value ''".
+  CHECK(error("[kinematics]\ntilt_direction = [0, 0, 1]") ==
+        "m.toml: key 'kinematics.table_direction': tilt and table axis directions are parallel: [0, 0, 1] and [0, 0, 1]");
   // validate()'s finding named by the key it is about, with that key's value.
   CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 0]"),
              StartsWith("m.toml: key 'kinematics.tilt_direction'") && Contains("finite unit vector") && Contains("[0, 0, 0]"));

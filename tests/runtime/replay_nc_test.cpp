@@ -326,6 +326,10 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
   CHECK(jsonl.find("\"type\":\"probe_interval\"") != std::string::npos);
   CHECK(jsonl.find("\"non_compensable_um_per_m\":") != std::string::npos);
   CHECK(read_text(dir / "out" / "program.ngc").find("G10 L2 P1") != std::string::npos);
+  // Its header names the command that wrote it (before: "written by alc nc").
+  CHECK(read_text(dir / "out" / "program.ngc")
+            .rfind("(ALC thermal compensation, written by alc replay: work offsets G10 L2, probe interval #3001 [min])\n",
+                   0) == 0);
   CHECK(err.find("commands") != std::string::npos);
   CHECK(err.find("refused") != std::string::npos);
   // What no axis can cancel is said, not dropped: the largest value of the run (A: E_B0C is tens of µm/m).

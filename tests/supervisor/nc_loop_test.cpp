@@ -483,6 +483,10 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
     std::string last_g10;
     for (const auto& f : files) {
       std::ifstream in(f);
+      std::string first;
+      std::getline(in, first);
+      // The header names the supervisor as the writer (before: "written by alc nc").
+      CHECK(first.rfind("(ALC thermal compensation, written by alc supervise:", 0) == 0);
       for (std::string line; std::getline(in, line);)
         if (line.rfind("G21 G10 L2 P1", 0) == 0) last_g10 = line;
     }

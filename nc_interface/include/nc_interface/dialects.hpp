@@ -40,6 +40,12 @@ struct BaseOffset {
   int line = 0;
 };
 
+// The command a program's header comment names as its writer (linuxcnc: "written by alc nc"); fixed
+// text, never user input.
+enum class ProgramWriter { AlcNc, AlcReplay, AlcSupervise };
+// "alc nc", "alc replay", "alc supervise".
+std::string_view program_writer_name(ProgramWriter writer);
+
 struct DialectOptions {
   std::array<BaseOffset, 6> base{};            // index 0 = G54 … 5 = G59
   int linuxcnc_interval_parameter = 3001;      // #31…#5000; persistent only if listed in the var file
@@ -48,6 +54,7 @@ struct DialectOptions {
   int sinumerik_interval_r = 100;              // R0…R999 (retentive)
   int heidenhain_interval_qr = 100;            // QR0…QR499 (retentive)
   std::string heidenhain_program_name = "ALCCOMP";  // [A-Z0-9_], 1…16 characters
+  ProgramWriter writer = ProgramWriter::AlcNc;  // named in the linuxcnc program's header comment
 };
 
 // Empty if usable, else which option is out of range (names the option and the value).

@@ -49,7 +49,8 @@ struct MachineConfig {
 };
 
 // A config that cannot be used. The message reads `FILE: key 'KEY': reason: value 'VALUE'`, with
-// ` (line N)` after the key where the error names the key's line.
+// ` (line N)` after the key where the error names the key's line, and without `: value …` where the
+// key has no value (not in the file, e.g. a default that conflicts with another key).
 class ConfigError : public std::runtime_error {
  public:
   ConfigError(std::string file, std::string key, std::string value, const std::string& reason, int line = 0);
