@@ -84,10 +84,13 @@ void run_nc(const NcArgs& args) {
   } catch (const nc::JsonlError& e) {
     throw UsageError(e.what());
   }
-  // A work offset that G10 L2 would replace needs its base (docs/nc.md, "Base offsets").
+  // A work offset that G10 L2 would replace needs its base, for every axis the command writes
+  // (docs/nc.md, "Base offsets").
   for (std::size_t i = 0; i < commands.size(); ++i)
     if (const auto* o = std::get_if<nc::AxisOffsets>(&commands[i]))
-      if (const std::string why = nc::missing_base(*dialect, config.nc, o->work_offset); !why.empty())
+      if (const std::string why = nc::missing_base(*dialect, config.nc, o->work_offset,
+                                                   o->a_deg ? 'A' : o->b_deg ? 'B' : '\0');
+          !why.empty())
         throw UsageError("command " + std::to_string(i + 1) + ": " + why +
                          (args.machine.empty() ? "; give --machine FILE" : " in " + args.machine));
   // Safety first: nothing is written when any command is refused. max_step is judged from the

@@ -234,6 +234,9 @@ void print_nc_summary(const std::string& source, const std::filesystem::path& di
   if (observer.not_converged())
     std::cerr << "; " << observer.not_converged() << " moments without a converged compensation";
   std::cerr << "\n";
+  for (const std::filesystem::path& old : s.removed)
+    std::cerr << source << ": removed " << old.string() << ", the program of an earlier run in another dialect (this run's is "
+              << s.program_file.string() << ")\n";
 }
 
 enum class ResumePlan { Begin, Resume, Stored };
@@ -343,6 +346,8 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError(e.what());
     }
   }
+  // The programs it writes (--nc-out, the nc_commands text of --db) name alc replay as their writer.
+  machine.nc.writer = nc::ProgramWriter::AlcReplay;
   if (!a.nc_out.empty()) {
     if (a.resume)
       throw UsageError(
@@ -354,7 +359,8 @@ void run_replay(const ReplayArgs& a) {
     // A real machine's file must give the base that G10 L2 writes with; the built-in twin's work
     // offsets (no --machine) are zero by construction (docs/nc.md, "Base offsets").
     if (!a.machine.empty())
-      if (const std::string why = nc::missing_base(dialect, machine.nc, machine.work_offset); !why.empty())
+      if (const std::string why = nc::missing_base(dialect, machine.nc, machine.work_offset, machine.chain.tilt.name);
+          !why.empty())
         throw UsageError("--machine " + a.machine + ": " + why);
   } else if (a.dialect != "linuxcnc") {
     throw UsageError("--dialect needs --nc-out");
@@ -565,7 +571,8 @@ void add_replay_command(CLI::App& app) {
                   "measurement after CP to this CSV");
   cmd->add_option("--nc-out", args->nc_out,
                   "Write the NC commands of the replay to this directory: commands.jsonl, program.<ext>, "
-                  "safety.jsonl (with --case all one subdirectory per case); see 'NC output'");
+                  "safety.jsonl (with --case all one subdirectory per case); the program of another dialect an "
+                  "earlier run left there is removed (said on stderr); see 'NC output'");
   cmd->add_option("--dialect", args->dialect, "NC dialect of --nc-out: linuxcnc, fanuc, sinumerik or heidenhain")
       ->capture_default_str();
   cmd->add_option("--machine", args->machine,

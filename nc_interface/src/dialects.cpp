@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "common/number_text.hpp"
 
@@ -62,7 +64,8 @@ void linuxcnc_lines(const NcCommand& command, const DialectOptions& options, std
 }
 
 void write_linuxcnc(std::ostream& s, const std::vector<NcCommand>& commands, const DialectOptions& options) {
-  s << "(ALC thermal compensation, written by alc nc: work offsets G10 L2, probe interval #"
+  s << "(ALC thermal compensation, written by " << program_writer_name(options.writer)
+    << ": work offsets G10 L2, probe interval #"
     << options.linuxcnc_interval_parameter << " [min])\n";
   std::vector<std::string> lines;
   for (const NcCommand& c : commands) linuxcnc_lines(c, options, lines);
@@ -159,6 +162,15 @@ std::string_view dialect_name(Dialect dialect) {
   return "?";
 }
 
+std::string_view program_writer_name(ProgramWriter writer) {
+  switch (writer) {
+    case ProgramWriter::AlcNc: return "alc nc";
+    case ProgramWriter::AlcReplay: return "alc replay";
+    case ProgramWriter::AlcSupervise: return "alc supervise";
+  }
+  return "alc";
+}
+
 std::string_view program_extension(Dialect dialect) {
   switch (dialect) {
     case Dialect::LinuxCNC: return ".ngc";
@@ -200,15 +212,35 @@ std::string validate(const DialectOptions& o) {
   return {};
 }
 
-std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset) {
+std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset, char tilt_axis) {
   if (dialect != Dialect::LinuxCNC && dialect != Dialect::Fanuc) return {};
   if (work_offset < kMinWorkOffset || work_offset > kMaxWorkOffset) return {};  // validate() says so
-  if (options.base[static_cast<std::size_t>(work_offset - 1)].given) return {};
+  const BaseOffset& b = options.base[static_cast<std::size_t>(work_offset - 1)];
   const std::string wo = work_offset_name(work_offset);
-  return std::string(dialect == Dialect::LinuxCNC ? "linuxcnc" : "fanuc") + " writes G10 L2, which replaces the whole " +
-         wo + " with base + compensation, and the machine file gives no base for it: the operator's " + wo +
-         " would become the compensation alone. Write the work offset without compensation as [nc.base." + wo +
-         "] (x_mm, y_mm, z_mm, a_deg or b_deg, c_deg; all 0 only if " + wo + " really is 0)";
+  const std::string writer = std::string(dialect == Dialect::LinuxCNC ? "linuxcnc" : "fanuc") +
+                             " writes G10 L2, which replaces the whole " + wo + " with base + compensation";
+  // The axes the program writes: X Y Z, the tilt axis (if any), C; index into BaseOffset::axes.
+  std::vector<std::pair<std::size_t, const char*>> written{{0, "x_mm"}, {1, "y_mm"}, {2, "z_mm"}};
+  if (tilt_axis == 'A') written.emplace_back(3, "a_deg");
+  if (tilt_axis == 'B') written.emplace_back(4, "b_deg");
+  written.emplace_back(5, "c_deg");
+  std::string keys;
+  for (const auto& [index, key] : written) keys += std::string(keys.empty() ? "" : ", ") + key;
+  if (!b.given)
+    return writer + ", and the machine file gives no base for it: the operator's " + wo +
+           " would become the compensation alone. Write the work offset without compensation as [nc.base." + wo +
+           "] (" + keys + "; 0 only where " + wo + " really is 0)";
+  std::string missing, letters;
+  for (const auto& [index, key] : written) {
+    if (b.axes[index]) continue;
+    missing += std::string(missing.empty() ? "" : ", ") + "'nc.base." + wo + "." + key + "'";
+    letters += std::string(letters.empty() ? "" : ", ") + "XYZABC"[index];
+  }
+  if (missing.empty()) return {};
+  return "[nc.base." + wo + "]" + (b.line > 0 ? " (line " + std::to_string(b.line) + ")" : std::string()) +
+         " lacks key " + missing + ": " + writer + ", so " + wo + " " + letters +
+         " would become the compensation alone, not the operator's value. Give every axis the program writes (" +
+         keys + "; 0 only where " + wo + " really is 0)";
 }
 
 std::string validate(const NcCommand& command) {

@@ -68,8 +68,8 @@ class LineReader {
 JsonlError::JsonlError(std::string source_, std::size_t line_, std::string field_, std::string value_,
                        const std::string& reason_)
     : std::runtime_error(source_ + ":" + std::to_string(line_) + ": " + reason_ +
-                         (field_.empty() ? std::string() : " (field '" + field_ + "')") + ": value '" +
-                         shorten(value_) + "'"),
+                         (field_.empty() ? std::string() : " (field '" + field_ + "')") +
+                         (value_.empty() ? std::string() : ": value '" + shorten(value_) + "'")),
       source(std::move(source_)), line(line_), field(std::move(field_)), value(shorten(std::move(value_))),
       reason(reason_) {}
 

@@ -23,7 +23,15 @@ class Table {
   [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
     throw ConfigError(file_, full(key), node_text(t_ ? t_->get(key) : nullptr), reason);
   }
+  // The same, naming the key's line in the file (a key that is there).
+  [[noreturn]] void fail_at_line(const std::string& key, const std::string& reason) const {
+    const toml::node* n = t_ ? t_->get(key) : nullptr;
+    throw ConfigError(file_, full(key), node_text(n), reason, n ? static_cast<int>(n->source().begin.line) : 0);
+  }
   std::string full(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  // The line of the table in the file ([nc.base.G54]); 0 when not known (an implicit table).
+  int line() const { return t_ ? static_cast<int>(t_->source().begin.line) : 0; }
+  bool has(const std::string& key) const { return t_ && t_->contains(key); }
 
   const toml::node* get(const std::string& key) {
     known_.insert(key);
@@ -142,13 +150,23 @@ void read_nc(Table t, MachineConfig& config) {
     BaseOffset& b = o.base[static_cast<std::size_t>(*index - 1)];
     Table bt = base.sub(key);
     b.given = true;
-    bt.number("x_mm", b.x_mm);
-    bt.number("y_mm", b.y_mm);
-    bt.number("z_mm", b.z_mm);
-    bt.number("a_deg", b.a_deg);
-    bt.number("b_deg", b.b_deg);
-    bt.number("c_deg", b.c_deg);
+    b.line = bt.line();
+    const std::pair<const char*, double*> axes[] = {{"x_mm", &b.x_mm},  {"y_mm", &b.y_mm},  {"z_mm", &b.z_mm},
+                                                    {"a_deg", &b.a_deg}, {"b_deg", &b.b_deg}, {"c_deg", &b.c_deg}};
+    for (std::size_t i = 0; i < 6; ++i) {
+      bt.number(axes[i].first, *axes[i].second);
+      b.axes[i] = bt.has(axes[i].first);
+    }
     bt.no_unknown_keys();
+    // A base for the tilt axis the chain does not have is never written: G10 L2 writes the chain's
+    // tilt axis from a base of 0 instead (an A-C chain with only b_deg set A to the compensation).
+    const char tilt = config.chain.tilt.name;
+    const char* other = tilt == 'A' ? "b_deg" : "a_deg";
+    if (bt.has(other))
+      bt.fail_at_line(other, std::string("the machine's chain (kinematics.chain) is ") + (tilt == 'A' ? "A-C" : "B-C") +
+                                 ", which has no " + (tilt == 'A' ? "B" : "A") + " axis: give the tilt axis's base as " +
+                                 (tilt == 'A' ? "a_deg" : "b_deg") + ", or set the chain (kinematics.chain = \"" +
+                                 (tilt == 'A' ? "B-C" : "A-C") + "\")");
   }
   t.no_unknown_keys();
   if (const std::string e = validate(o); !e.empty()) {
@@ -177,10 +195,12 @@ void read_limits(Table t, SafetyLimits& l) {
 
 }  // namespace
 
-ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_)
+ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_, int line_)
     : std::runtime_error(key_.empty() ? file_ + ": " + reason_  // the file itself, not a key
-                                      : file_ + ": key '" + key_ + "': " + reason_ + ": value '" + value_ + "'"),
-      file(std::move(file_)), key(std::move(key_)), value(std::move(value_)), reason(reason_) {}
+                                      : file_ + ": key '" + key_ + "'" +
+                                            (line_ > 0 ? " (line " + std::to_string(line_) + ")" : std::string()) +
+                                            ": " + reason_ + (value_.empty() ? std::string() : ": value '" + value_ + "'")),
+      file(std::move(file_)), key(std::move(key_)), value(std::move(value_)), reason(reason_), line(line_) {}
 
 MachineConfig parse_machine_config(const std::string& toml_text, const std::string& source_name) {
   toml::table root;

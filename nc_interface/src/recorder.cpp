@@ -81,6 +81,19 @@ NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect
   io::write_file_atomically(summary.commands_file, jsonl.str());
   io::write_file_atomically(summary.program_file, program);
   io::write_file_atomically(summary.safety_file, safety.str());
+  // An earlier run into DIR in another dialect left its program (review: program.ngc of case A with
+  // G55 and base -350 beside case B's commands.jsonl and program.nc): one run's output only. Only the
+  // names ALC itself gives a program, and only a file or a link (a directory of that name stays).
+  for (const Dialect other : {Dialect::LinuxCNC, Dialect::Fanuc, Dialect::Sinumerik, Dialect::Heidenhain}) {
+    if (other == dialect) continue;
+    const std::filesystem::path old = dir / ("program" + std::string(program_extension(other)));
+    const std::filesystem::file_status st = std::filesystem::symlink_status(old, ec);
+    if (ec || !(std::filesystem::is_regular_file(st) || std::filesystem::is_symlink(st))) continue;
+    if (!std::filesystem::remove(old, ec) || ec)
+      throw std::runtime_error("cannot remove " + old.string() + ", the program of an earlier run in another dialect, " +
+                               "beside the new output: " + (ec ? ec.message() : std::string("not removed")));
+    summary.removed.push_back(old);
+  }
   return summary;
 }
 

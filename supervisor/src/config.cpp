@@ -147,7 +147,8 @@ void read_nc(Section& n, SupervisorConfig& c) {
     nc.dialect = *d;
   }
   if (nc.sink != "none")
-    if (const std::string why = nc::missing_base(nc.dialect, c.machine.nc, c.machine.work_offset); !why.empty())
+    if (const std::string why = nc::missing_base(nc.dialect, c.machine.nc, c.machine.work_offset, c.machine.chain.tilt.name);
+        !why.empty())
       n.fail("machine", why + (nc.machine ? "" : "; give nc.machine, a machine file (nc_interface/machine.example.toml)"));
   if (auto v = n.text("spool_dir")) nc.spool_dir = relative_to(c.file, *v);
   if (nc.sink == "spool" && !nc.spool_dir) n.fail("spool_dir", "missing (sink = \"spool\" writes its programs there)");
@@ -258,6 +259,7 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
       throw ConfigError(name, "nc.machine", "\"" + *v + "\"", e.what());
     }
   }
+  c.machine.nc.writer = nc::ProgramWriter::AlcSupervise;  // named in the spooled programs
   read_nc(n, c);
 
   if (top.table()->contains("status")) {

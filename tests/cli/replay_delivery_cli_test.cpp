@@ -24,7 +24,7 @@ Run run_alc(const std::string& args) { return alc_test::run_alc(args, "replay_de
 // so a replay has accepted and refused NC commands.
 std::string tight_machine() {
   const fs::path file = work_dir() / "tight.toml";
-  std::ofstream(file) << "[limits.max_offset]\nx_mm = 0.002\n[nc.base.G54]\n";
+  std::ofstream(file) << "[limits.max_offset]\nx_mm = 0.002\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 0\nc_deg = 0\n";
   return " --machine \"" + file.string() + "\"";
 }
 

@@ -288,7 +288,8 @@ TEST_CASE("linuxcncrsh sink: a read-back that never arrives is an error within t
 TEST_CASE("alc nc --sink linuxcncrsh: delivers and reads back, what did not take goes to stderr with exit 1",
           "[nc][transport][cli]") {
   const auto dir = alc::nc::test::fresh_dir("cli_linuxcncrsh");
-  alc::nc::test::write_text(dir / "m.toml", "[nc.base.G54]\n[nc.base.G55]\nx_mm = 100.0\nc_deg = 90.0\n");
+  alc::nc::test::write_text(dir / "m.toml", std::string(alc::nc::test::kZeroBaseG54) +
+                                                "[nc.base.G55]\nx_mm = 100.0\ny_mm = 0.0\nz_mm = 0.0\na_deg = 0.0\nc_deg = 90.0\n");
   const std::string machine = " --machine " + (dir / "m.toml").string();
   const auto write_in = [&](const std::vector<NcCommand>& commands) {
     std::ostringstream jsonl;

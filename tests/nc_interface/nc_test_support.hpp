@@ -17,9 +17,13 @@
 
 namespace alc::nc::test {
 
-// A machine file's base tables for every work offset, all 0 (given: G10 L2 may write them).
-inline constexpr const char* kAllBases =
-    "[nc.base.G54]\n[nc.base.G55]\n[nc.base.G56]\n[nc.base.G57]\n[nc.base.G58]\n[nc.base.G59]\n";
+// A machine file's base table for one work offset of an A-C machine, every axis written 0 (given:
+// G10 L2 may write it; a table must give every axis the program writes).
+#define ALC_TEST_ZERO_BASE(wo) "[nc.base." wo "]\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 0.0\na_deg = 0.0\nc_deg = 0.0\n"
+inline constexpr const char* kZeroBaseG54 = ALC_TEST_ZERO_BASE("G54");
+// The same for every work offset.
+inline constexpr const char* kAllBases = ALC_TEST_ZERO_BASE("G54") ALC_TEST_ZERO_BASE("G55") ALC_TEST_ZERO_BASE("G56")
+    ALC_TEST_ZERO_BASE("G57") ALC_TEST_ZERO_BASE("G58") ALC_TEST_ZERO_BASE("G59");
 
 // Axis offsets with A and C (the A–C table) on work offset `work_offset` (1 = G54).
 inline AxisOffsets offsets(double x, double y, double z, double a, double c, int work_offset = 1) {

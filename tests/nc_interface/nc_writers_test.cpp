@@ -213,6 +213,8 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"axis_offsets","y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0})");
   CHECK(e.field == "x_mm");
   CHECK(e.reason == "missing field");
+  // No value, so no "value ''" (before: "missing field (field 'x_mm'): value ''").
+  CHECK(std::string(e.what()) == "cmds.jsonl:1: missing field (field 'x_mm')");
   e = fails(R"({"type":"probe_interval","minutes":-5})");
   CHECK(e.field == "minutes");
   CHECK(e.value == "-5");
@@ -238,6 +240,7 @@ TEST_CASE("jsonl: bad input names line, field and value", "[nc][jsonl]") {
   e = fails(R"({"type":"axis_offsets","x_mm":0.001,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0,"x_mm":0.002})");
   CHECK(e.field == "x_mm");
   CHECK(e.reason == "duplicate field");
+  CHECK(std::string(e.what()) == "cmds.jsonl:1: duplicate field (field 'x_mm')");  // before: …: value ''
   e = fails("[1,2]");
   CHECK(e.reason == "not a JSON object");
   e = fails(R"({"type":"axis_offsets","x_mm":2e6,"y_mm":0,"z_mm":0,"a_deg":0,"c_deg":0})");
@@ -579,8 +582,9 @@ c_deg = 0.002
   CHECK(error("[nc]\nwork_offset = \"G54.1\"") == "m.toml: key 'nc.work_offset': must be one of G54 … G59: value '\"G54.1\"'");
   CHECK_THAT(error("[nc]\nfanuc_interval_variable = 33"), StartsWith("m.toml: key 'nc.fanuc_interval_variable'") && Contains("33"));
   CHECK_THAT(error("[kinematics]\ntilt_direction = [1, 0]"), StartsWith("m.toml: key 'kinematics.tilt_direction'"));
-  CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 1]"),
-             StartsWith("m.toml: key 'kinematics.table_direction'") && Contains("parallel"));
+  // A key not in the file (table_direction is the default here) has no value to show: no "value ''".
+  CHECK(error("[kinematics]\ntilt_direction = [0, 0, 1]") ==
+        "m.toml: key 'kinematics.table_direction': tilt and table axis directions are parallel: [0, 0, 1] and [0, 0, 1]");
   // validate()'s finding named by the key it is about, with that key's value.
   CHECK_THAT(error("[kinematics]\ntilt_direction = [0, 0, 0]"),
              StartsWith("m.toml: key 'kinematics.tilt_direction'") && Contains("finite unit vector") && Contains("[0, 0, 0]"));
@@ -626,6 +630,32 @@ TEST_CASE("replay entry point: commands.jsonl, program and safety record", "[nc]
   CHECK_THAT(safety, Contains("\"verdict\":\"split\"") && Contains("\"verdict\":\"refused\"") &&
                          Contains("axis X offset 0.5000 mm exceeds max_offset 0.1000 mm") &&
                          Contains("\"non_compensable_um_per_m\":4.25"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("replay entry point: the program another dialect left in DIR is removed, nothing else", "[nc][recorder]") {
+  // Review: --nc-out into a directory with case A's program.ngc (linuxcnc), then case B with fanuc:
+  // DIR had B's commands.jsonl and program.nc beside A's program.ngc, and nothing said so.
+  const auto dir = alc::nc::test::fresh_dir("recorder_stale");
+  const std::vector<NcCommand> commands{offsets(0.002, 0, 0, 0, 0), ProbeInterval{10.0, {}}};
+  const NcOutputSummary first = write_replay_nc_output(dir, Dialect::LinuxCNC, commands);
+  CHECK(first.removed.empty());
+  REQUIRE(std::filesystem::exists(dir / "program.ngc"));
+  // Files that only look like ours, and a directory by a program's name, are not ALC's to remove.
+  for (const char* name : {"program.ngc.bak", "program.txt", "program2.nc", "notes.mpf", "PROGRAM.H"})
+    alc::nc::test::write_text(dir / name, "operator's\n");
+  std::filesystem::create_directories(dir / "program.mpf");
+  alc::nc::test::write_text(dir / "program.h", "0 BEGIN PGM OLD MM\n");
+  const NcOutputSummary second = write_replay_nc_output(dir, Dialect::Fanuc, commands);
+  CHECK(second.removed == std::vector<std::filesystem::path>{dir / "program.ngc", dir / "program.h"});
+  CHECK_FALSE(std::filesystem::exists(dir / "program.ngc"));
+  CHECK_FALSE(std::filesystem::exists(dir / "program.h"));
+  CHECK(std::filesystem::exists(dir / "program.nc"));
+  CHECK(std::filesystem::is_directory(dir / "program.mpf"));
+  for (const char* name : {"program.ngc.bak", "program.txt", "program2.nc", "notes.mpf", "PROGRAM.H"})
+    CHECK(alc::nc::test::read_text(dir / name) == "operator's\n");
+  // The same dialect again: its own program is replaced, nothing removed.
+  CHECK(write_replay_nc_output(dir, Dialect::Fanuc, commands).removed.empty());
   std::filesystem::remove_all(dir);
 }
 
@@ -786,8 +816,9 @@ TEST_CASE("alc nc: stdin to program, refusals and usage errors", "[nc][cli]") {
   CHECK(run("--dialect fanuc --in " + dir.string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("--in " + dir.string() + ": not a regular file (a directory)"));
   CHECK(alc::nc::test::read_text(dir / "out").empty());
+  // (big.jsonl: in.jsonl has a B-C command, whose b_deg the A-C bases.toml does not give.)
   CHECK(run("--dialect fanuc --machine " + (dir / "bases.toml").string() + " --in-force " + dir.string() + " --in " +
-            (dir / "in.jsonl").string()) == 2);
+            (dir / "big.jsonl").string()) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not a regular file (a directory)"));
   std::filesystem::remove_all(dir);
 }
@@ -894,7 +925,8 @@ TEST_CASE("alc nc --sink spool: one whole program file per command as sent", "[n
   std::filesystem::create_directories(spool);
   // Split steps are spooled one by one, each written with the machine's options (base of G55).
   alc::nc::test::write_text(dir / "m.toml", "[limits]\non_step_violation = \"split\"\n"
-                                            "[nc]\nlinuxcnc_interval_parameter = 3010\n[nc.base.G55]\nx_mm = 100.0\n");
+                                            "[nc]\nlinuxcnc_interval_parameter = 3010\n"
+                                            "[nc.base.G55]\nx_mm = 100.0\ny_mm = 0.0\nz_mm = 0.0\na_deg = 0.0\nc_deg = 0.0\n");
   const std::vector<NcCommand> commands{offsets(0.025, 0.001, 0, 0, 0, 2), ProbeInterval{30.0, {}}};
   std::ostringstream jsonl;
   write_commands_jsonl(jsonl, commands);
@@ -997,6 +1029,88 @@ TEST_CASE("machine config: the shipped example reads and equals the defaults", "
   CHECK(c.limits.step_period_s == d.limits.step_period_s);
   CHECK(c.nc.linuxcnc_interval_parameter == d.nc.linuxcnc_interval_parameter);
   CHECK_THROWS_WITH(read_machine_config("/nonexistent/m.toml"), Contains("/nonexistent/m.toml") && Contains("cannot open"));
+}
+
+TEST_CASE("machine config: a base table must give every axis G10 L2 writes, and no tilt axis the chain lacks",
+          "[nc][config]") {
+  // Before, a key left out of [nc.base.G54] was 0: a base of X-350 alone wrote
+  // G10 L2 P1 X-349.9900 Y0.0100 Z-0.0100 A-0.0010 C-0.0010, the operator's Z becoming -0.0100; and
+  // b_deg in an A-C file (a_deg in a B-C one) was read and never written, A written from 0.
+  const MachineConfig partial = parse_machine_config("[nc]\nwork_offset = \"G54\"\n[nc.base.G54]\nx_mm = -350.0\n", "p.toml");
+  CHECK(missing_base(Dialect::LinuxCNC, partial.nc, 1, 'A') ==
+        "[nc.base.G54] (line 3) lacks key 'nc.base.G54.y_mm', 'nc.base.G54.z_mm', 'nc.base.G54.a_deg', "
+        "'nc.base.G54.c_deg': linuxcnc writes G10 L2, which replaces the whole G54 with base + compensation, so "
+        "G54 Y, Z, A, C would become the compensation alone, not the operator's value. Give every axis the program "
+        "writes (x_mm, y_mm, z_mm, a_deg, c_deg; 0 only where G54 really is 0)");
+  CHECK_THAT(missing_base(Dialect::Fanuc, partial.nc, 1, 'B'), StartsWith("[nc.base.G54] (line 3) lacks key") &&
+                                                                   Contains("'nc.base.G54.b_deg'") && Contains("fanuc"));
+  CHECK_THAT(missing_base(Dialect::LinuxCNC, partial.nc, 1, '\0'), !Contains("a_deg") && Contains("'nc.base.G54.c_deg'"));
+  // Sinumerik and Heidenhain write no base: nothing is missing.
+  CHECK(missing_base(Dialect::Sinumerik, partial.nc, 1, 'A').empty());
+  CHECK(missing_base(Dialect::Heidenhain, partial.nc, 1, 'A').empty());
+  // An empty table gives no axis either (before, it stood for all zeros).
+  CHECK_THAT(missing_base(Dialect::LinuxCNC, parse_machine_config("[nc.base.G54]\n", "e.toml").nc, 1, 'A'),
+             Contains("[nc.base.G54] (line 1) lacks key 'nc.base.G54.x_mm', 'nc.base.G54.y_mm'"));
+  // The complete table of each chain is accepted; so is a work offset that gives its tilt axis only
+  // where a command has one.
+  const MachineConfig ac = parse_machine_config(
+      "[nc.base.G54]\nx_mm = -350.0\ny_mm = 0.0\nz_mm = -420.0\na_deg = 0.0\nc_deg = 0.0\n", "ac.toml");
+  CHECK(missing_base(Dialect::LinuxCNC, ac.nc, 1, 'A').empty());
+  CHECK(missing_base(Dialect::Fanuc, ac.nc, 1, '\0').empty());
+  CHECK_THAT(missing_base(Dialect::LinuxCNC, ac.nc, 1, 'B'), Contains("lacks key 'nc.base.G54.b_deg'"));
+  const MachineConfig bc = parse_machine_config(
+      "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 1\ny_mm = 2\nz_mm = 3\nb_deg = 4\nc_deg = 5\n", "bc.toml");
+  CHECK(missing_base(Dialect::LinuxCNC, bc.nc, 1, 'B').empty());
+  CHECK(bc.nc.base[0].b_deg == 4.0);
+  // The tilt axis the chain does not have: refused when the file is read, naming the key and its line.
+  const auto error = [](const std::string& text) -> std::string {
+    try {
+      parse_machine_config(text, "m.toml");
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  CHECK(error("[nc.base.G54]\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 0.0\nb_deg = 5.0\nc_deg = 0.0\n") ==
+        "m.toml: key 'nc.base.G54.b_deg' (line 5): the machine's chain (kinematics.chain) is A-C, which has no B axis: "
+        "give the tilt axis's base as a_deg, or set the chain (kinematics.chain = \"B-C\"): value '5'");
+  CHECK_THAT(error("[kinematics]\nchain = \"B-C\"\n[nc.base.G55]\nx_mm = 0.0\na_deg = 5.0\n"),
+             StartsWith("m.toml: key 'nc.base.G55.a_deg' (line 5): the machine's chain (kinematics.chain) is B-C, "
+                        "which has no A axis") && Contains("value '5'"));
+  // Both tilt axes (as the six keys of max_step): the one the chain lacks is named.
+  CHECK_THAT(error("[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 0\nb_deg = 0\nc_deg = 0\n"),
+             StartsWith("m.toml: key 'nc.base.G54.b_deg' (line 6)"));
+}
+
+TEST_CASE("alc nc: a partial base, or a tilt axis the chain lacks, is refused with the file, table, key and line",
+          "[nc][cli]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_partial_base");
+  const std::string in = (dir / "in.jsonl").string();
+  alc::nc::test::write_text(in, to_json_line(offsets(0.001, 0.001, -0.001, -0.0001, -0.0001)) + "\n");
+  const auto run = [&](const std::string& machine_text, const std::string& dialect) {
+    alc::nc::test::write_text(dir / "m.toml", machine_text);
+    return alc_test::run_alc("nc --dialect " + dialect + " --machine " + (dir / "m.toml").string() + " --in " + in,
+                             "cli_partial_base");
+  };
+  for (const char* dialect : {"linuxcnc", "fanuc"}) {
+    INFO(dialect);
+    const auto partial = run("[nc.base.G54]\nx_mm = -350.0\n", dialect);
+    CHECK(partial.exit_code == 2);
+    CHECK(partial.out.empty());
+    CHECK_THAT(partial.err, Contains("command 1: [nc.base.G54] (line 1) lacks key 'nc.base.G54.y_mm'") &&
+                                Contains("'nc.base.G54.z_mm'") && Contains("in " + (dir / "m.toml").string()));
+    const auto wrong_tilt = run("[nc.base.G54]\nx_mm = -350.0\ny_mm = 0\nz_mm = -420\nb_deg = 5.0\nc_deg = 0\n", dialect);
+    CHECK(wrong_tilt.exit_code == 2);
+    CHECK(wrong_tilt.out.empty());
+    CHECK_THAT(wrong_tilt.err, Contains((dir / "m.toml").string() + ": key 'nc.base.G54.b_deg' (line 5)"));
+    const auto complete = run("[nc.base.G54]\nx_mm = -350.0\ny_mm = 0\nz_mm = -420\na_deg = 0\nc_deg = 0\n", dialect);
+    INFO(complete.err);
+    CHECK(complete.exit_code == 0);
+    CHECK_THAT(complete.out, Contains("G10 L2 P1 X-349.9990 Y0.0010 Z-420.0010 A-0.0001 C-0.0001"));
+  }
+  // Sinumerik adds to the operator's frame: a partial base is not in the way.
+  CHECK(run("[nc.base.G54]\nx_mm = -350.0\n", "sinumerik").exit_code == 0);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("README: the alc nc example gives the program the README shows", "[nc][cli]") {

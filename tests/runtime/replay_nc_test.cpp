@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "../cli_support.hpp"
@@ -47,25 +49,27 @@ std::string expected_g5x(const nc::AxisOffsets& o) {
          nc::format_nc_number(o.b_deg.value_or(0.0)) + ", " + nc::format_nc_number(o.c_deg) + ")";
 }
 
-// Every axis_offsets command within max_offset, and each within max_step of the one before.
+// Every axis_offsets command within max_offset, and each within max_step of the one before, as the
+// safety gate judges them: in the values as printed (what the NC receives, nc::as_printed).
 void check_within_limits(const std::vector<nc::AxisOffsets>& sent, const nc::SafetyLimits& limits) {
   const nc::AxisOffsets zero;
+  const auto p = [](double v) { return nc::as_printed(v); };
   for (std::size_t i = 0; i < sent.size(); ++i) {
     INFO("offset command " << i + 1);
     const nc::AxisOffsets& o = sent[i];
     const nc::AxisOffsets& before = i == 0 ? zero : sent[i - 1];
-    CHECK(std::abs(o.x_mm) <= limits.max_offset.x_mm);
-    CHECK(std::abs(o.y_mm) <= limits.max_offset.y_mm);
-    CHECK(std::abs(o.z_mm) <= limits.max_offset.z_mm);
-    CHECK(std::abs(o.a_deg.value_or(0.0)) <= limits.max_offset.a_deg);
-    CHECK(std::abs(o.b_deg.value_or(0.0)) <= limits.max_offset.b_deg);
-    CHECK(std::abs(o.c_deg) <= limits.max_offset.c_deg);
-    CHECK(std::abs(o.x_mm - before.x_mm) <= limits.max_step.x_mm + 1e-12);
-    CHECK(std::abs(o.y_mm - before.y_mm) <= limits.max_step.y_mm + 1e-12);
-    CHECK(std::abs(o.z_mm - before.z_mm) <= limits.max_step.z_mm + 1e-12);
-    CHECK(std::abs(o.a_deg.value_or(0.0) - before.a_deg.value_or(0.0)) <= limits.max_step.a_deg + 1e-12);
-    CHECK(std::abs(o.b_deg.value_or(0.0) - before.b_deg.value_or(0.0)) <= limits.max_step.b_deg + 1e-12);
-    CHECK(std::abs(o.c_deg - before.c_deg) <= limits.max_step.c_deg + 1e-12);
+    CHECK(std::abs(p(o.x_mm)) <= limits.max_offset.x_mm);
+    CHECK(std::abs(p(o.y_mm)) <= limits.max_offset.y_mm);
+    CHECK(std::abs(p(o.z_mm)) <= limits.max_offset.z_mm);
+    CHECK(std::abs(p(o.a_deg.value_or(0.0))) <= limits.max_offset.a_deg);
+    CHECK(std::abs(p(o.b_deg.value_or(0.0))) <= limits.max_offset.b_deg);
+    CHECK(std::abs(p(o.c_deg)) <= limits.max_offset.c_deg);
+    CHECK(std::abs(p(o.x_mm) - p(before.x_mm)) <= limits.max_step.x_mm + 1e-12);
+    CHECK(std::abs(p(o.y_mm) - p(before.y_mm)) <= limits.max_step.y_mm + 1e-12);
+    CHECK(std::abs(p(o.z_mm) - p(before.z_mm)) <= limits.max_step.z_mm + 1e-12);
+    CHECK(std::abs(p(o.a_deg.value_or(0.0)) - p(before.a_deg.value_or(0.0))) <= limits.max_step.a_deg + 1e-12);
+    CHECK(std::abs(p(o.b_deg.value_or(0.0)) - p(before.b_deg.value_or(0.0))) <= limits.max_step.b_deg + 1e-12);
+    CHECK(std::abs(p(o.c_deg) - p(before.c_deg)) <= limits.max_step.c_deg + 1e-12);
   }
 }
 
@@ -219,6 +223,92 @@ TEST_CASE("replay NC output: every load case's linuxcnc program passes rs274 wit
   }
 }
 
+TEST_CASE("replay NC output: a max_step that is not a multiple of the NC resolution is stepped in printed values, "
+          "nothing refused",
+          "[replay][nc]") {
+  // Before, the emitter stepped by max_step in computed values while the NC got them rounded to
+  // 0.0001: with max_step 0.00015 a step printed 0.0001, the next request 0.0003 was a printed change
+  // of 0.0002 > max_step, refused, and every axis stayed where it was for the rest of the run (case A:
+  // 834 commands, 829 refused, 5 written); with 0.00019 not one offset was written.
+  const sc::Scenario scenario = sc::simulate_case("A").scenario;
+  const double end_s = scenario.time_s.back();
+  const auto ticks = [](double v) { return nc::nc_ticks(v); };
+  for (const double max_step : {0.00015, 0.00019, 0.00025}) {
+    INFO("max_step " << max_step << " on every axis");
+    rt::ReplayOptions o;
+    o.machine.limits.max_step = {max_step, max_step, max_step, max_step, max_step, max_step};
+    o.nc = rt::NcOutputSetup{alc::nc::test::fresh_dir("replay_nc_fine_step"), nc::Dialect::LinuxCNC};
+    PredictionTap tap;
+    o.observers.push_back(&tap);
+    rt::Replay replay(scenario, o);
+    tap.nc = replay.nc();
+    replay.run();
+    const rt::NcCommandObserver& observer = *replay.nc();
+    REQUIRE(replay.nc_summary());
+    const nc::NcOutputSummary& s = *replay.nc_summary();
+    CHECK(observer.refused() == 0);
+    CHECK(s.refused == 0);
+    CHECK(s.split == 0);
+
+    // What is written: every printed change within max_step (from zero at the start), and offsets
+    // throughout the run, not a handful at its start.
+    std::istringstream jsonl(read_text(s.commands_file));
+    std::vector<nc::AxisOffsets> sent;
+    for (const nc::NcCommand& c : nc::read_commands_jsonl(jsonl, s.commands_file.string()))
+      if (const auto* a = std::get_if<nc::AxisOffsets>(&c)) sent.push_back(*a);
+    REQUIRE(sent.size() > 1000);
+    const long long per_step = static_cast<long long>(std::floor(max_step * 1e4 + 1e-9));  // whole ticks
+    nc::AxisOffsets before;
+    before.a_deg = 0.0;
+    for (std::size_t i = 0; i < sent.size(); ++i) {
+      INFO("offset command " << i + 1);
+      const nc::AxisOffsets& a = sent[i];
+      REQUIRE(a.a_deg.has_value());
+      for (const auto& [now, then] : {std::pair{a.x_mm, before.x_mm}, std::pair{a.y_mm, before.y_mm},
+                                      std::pair{a.z_mm, before.z_mm}, std::pair{*a.a_deg, *before.a_deg},
+                                      std::pair{a.c_deg, before.c_deg}})
+        CHECK(std::llabs(ticks(now) - ticks(then)) <= per_step);
+      before = a;
+    }
+    CHECK(*sent.back().time_s > end_s - 86400.0);
+
+    // The offsets approach the requests: each command moves every axis toward the target of its
+    // moment (compensate() of that cycle's prediction), as printed, none away from it and at least one
+    // closer; and the target is reached again and again, not only approached.
+    REQUIRE(tap.emitted.size() == sent.size());
+    nc::AxisOffsets held;  // printed offsets in force before the command (zero at the start)
+    held.a_deg = 0.0;
+    std::size_t reached = 0;
+    double last_reached_s = 0.0;
+    for (const auto& [command, prediction] : tap.emitted) {
+      INFO("command at t = " << *command.time_s << " s");
+      const auto errors = kinematics::location_errors_of(scenario.output_names, prediction);
+      const nc::AxisOffsets target =
+          nc::to_axis_offsets(kinematics::compensate(o.machine.chain, {}, errors), o.machine.chain);
+      long long closer = 0, gap = 0;
+      for (const auto& [now, then, want] :
+           {std::tuple{command.x_mm, held.x_mm, target.x_mm}, std::tuple{command.y_mm, held.y_mm, target.y_mm},
+            std::tuple{command.z_mm, held.z_mm, target.z_mm}, std::tuple{*command.a_deg, *held.a_deg, *target.a_deg},
+            std::tuple{command.c_deg, held.c_deg, target.c_deg}}) {
+        const long long after = std::llabs(ticks(now) - ticks(want)), prior = std::llabs(ticks(then) - ticks(want));
+        CHECK(after <= prior);
+        closer += prior - after;
+        gap = std::max(gap, after);
+      }
+      CHECK(closer > 0);
+      if (gap == 0) {
+        ++reached;
+        last_reached_s = *command.time_s;
+      }
+      held = command;
+    }
+    WARN("max_step " << max_step << ": " << sent.size() << " offset commands, " << reached
+                     << " of them at the target as printed, the last at " << last_reached_s / 3600.0 << " h");
+    CHECK(reached > 100);  // (most commands are steps toward a target that moved)
+    CHECK(last_reached_s > end_s - 86400.0);
+  }
+}
+
 TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl and program.ngc", "[replay][nc][cli]") {
   const fs::path dir = alc::nc::test::fresh_dir("replay_cli");
   const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" replay --case A --nc-out \"" + (dir / "out").string() +
@@ -236,6 +326,10 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
   CHECK(jsonl.find("\"type\":\"probe_interval\"") != std::string::npos);
   CHECK(jsonl.find("\"non_compensable_um_per_m\":") != std::string::npos);
   CHECK(read_text(dir / "out" / "program.ngc").find("G10 L2 P1") != std::string::npos);
+  // Its header names the command that wrote it (before: "written by alc nc").
+  CHECK(read_text(dir / "out" / "program.ngc")
+            .rfind("(ALC thermal compensation, written by alc replay: work offsets G10 L2, probe interval #3001 [min])\n",
+                   0) == 0);
   CHECK(err.find("commands") != std::string::npos);
   CHECK(err.find("refused") != std::string::npos);
   // What no axis can cancel is said, not dropped: the largest value of the run (A: E_B0C is tens of µm/m).
@@ -279,7 +373,8 @@ TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offs
   CHECK(refused.exit_code == 2);
   CHECK_THAT(refused.err, Catch::Matchers::Contains("bc.toml: linuxcnc writes G10 L2, which replaces the whole G54"));
   CHECK_FALSE(fs::exists(dir / "out" / "program.ngc"));
-  write_text(dir / "bc.toml", "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\n");
+  write_text(dir / "bc.toml",
+             "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nb_deg = 0\nc_deg = 0\n");
   const alc_test::CliRun run = alc_test::run_alc(
       "replay --case A --nc-out \"" + (dir / "out").string() + "\" --machine \"" + (dir / "bc.toml").string() + "\"",
       "replay_cli_bc");
@@ -317,6 +412,98 @@ TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offs
   CHECK(program.find(" A") == std::string::npos);
   CHECK(program.find(" B") != std::string::npos);
   check_rs274_applies(dir / "out", sent);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("replay NC output: a machine file whose base lacks an axis, or gives the tilt axis the chain lacks, is "
+          "refused",
+          "[replay][nc][cli]") {
+  // Review: [nc.base.G54] with x_mm = -350.0 alone gave exit 0 and G10 L2 P1 X-349.9900 Y0.0100
+  // Z-0.0100 A-0.0010 C-0.0010 (the operator's Z became -0.0100); an A-C chain with b_deg = 5.0 and no
+  // a_deg wrote A-0.0010, a B-C chain with a_deg = 5.0 wrote B-0.0009.
+  const fs::path dir = alc::nc::test::fresh_dir("replay_cli_partial_base");
+  const auto replay = [&](const std::string& machine_text, const std::string& dialect) {
+    write_text(dir / "m.toml", machine_text);
+    return alc_test::run_alc("replay --case A --nc-out \"" + (dir / "out").string() + "\" --dialect " + dialect +
+                                 " --machine \"" + (dir / "m.toml").string() + "\"",
+                             "replay_cli_partial_base");
+  };
+  const std::string machine = (dir / "m.toml").string();
+  for (const char* dialect : {"linuxcnc", "fanuc"}) {
+    INFO(dialect);
+    const alc_test::CliRun partial = replay("[nc.base.G54]\nx_mm = -350.0\n", dialect);
+    CHECK(partial.exit_code == 2);
+    CHECK_THAT(partial.err, Catch::Matchers::Contains("--machine " + machine + ": [nc.base.G54] (line 1) lacks key "
+                                                      "'nc.base.G54.y_mm', 'nc.base.G54.z_mm', 'nc.base.G54.a_deg', "
+                                                      "'nc.base.G54.c_deg'") &&
+                                Catch::Matchers::Contains("G54 Y, Z, A, C would become the compensation alone"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+    // The B-C chain needs b_deg, not a_deg.
+    const alc_test::CliRun bc_partial =
+        replay("[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nc_deg = 0\n", dialect);
+    CHECK(bc_partial.exit_code == 2);
+    CHECK_THAT(bc_partial.err, Catch::Matchers::Contains("(line 3) lacks key 'nc.base.G54.b_deg':"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+  }
+  // A tilt axis the chain does not have: the machine file is refused, whatever the dialect.
+  for (const char* dialect : {"linuxcnc", "sinumerik"}) {
+    INFO(dialect);
+    const alc_test::CliRun ac_b =
+        replay("[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nb_deg = 5.0\nc_deg = 0\n", dialect);
+    CHECK(ac_b.exit_code == 2);
+    CHECK_THAT(ac_b.err, Catch::Matchers::Contains(machine + ": key 'nc.base.G54.b_deg' (line 5): the machine's chain "
+                                                   "(kinematics.chain) is A-C, which has no B axis") &&
+                             Catch::Matchers::Contains("value '5'"));
+    const alc_test::CliRun bc_a = replay(
+        "[kinematics]\nchain = \"B-C\"\n[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 5.0\nc_deg = 0\n", dialect);
+    CHECK(bc_a.exit_code == 2);
+    CHECK_THAT(bc_a.err, Catch::Matchers::Contains(machine + ": key 'nc.base.G54.a_deg' (line 7): the machine's chain "
+                                                   "(kinematics.chain) is B-C, which has no A axis"));
+    CHECK_FALSE(fs::exists(dir / "out"));
+  }
+  // Sinumerik writes no base: a partial table is not in its way.
+  CHECK(replay("[nc.base.G54]\nx_mm = -350.0\n", "sinumerik").exit_code == 0);
+  fs::remove_all(dir / "out");
+  // The complete base is accepted and written: base + compensation on every axis.
+  const alc_test::CliRun complete =
+      replay("[nc.base.G54]\nx_mm = -350.0\ny_mm = 10.0\nz_mm = -420.0\na_deg = 0.0\nc_deg = 90.0\n", "linuxcnc");
+  INFO(complete.err);
+  REQUIRE(complete.exit_code == 0);
+  CHECK(complete.err.find(" 0 refused, 0 split") != std::string::npos);
+  const std::string program = read_text(dir / "out" / "program.ngc");
+  CHECK_THAT(program, Catch::Matchers::Contains("G21 G10 L2 P1 X-349.9900 Y10.0100 Z-420.0100 A-0.0010 C89.9990"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("replay NC output: --nc-out into a directory with another dialect's program removes it and says so",
+          "[replay][nc][cli]") {
+  // Review: case A (linuxcnc, G55, base -350) into st/, then case B with --dialect fanuc into st/: st/
+  // had B's commands.jsonl and program.nc beside A's program.ngc, and nothing warned.
+  const fs::path dir = alc::nc::test::fresh_dir("replay_cli_stale");
+  write_text(dir / "g55.toml", "[nc]\nwork_offset = \"G55\"\n[nc.base.G55]\nx_mm = -350.0\ny_mm = 0\nz_mm = 0\na_deg = 0\n"
+                               "c_deg = 0\n");
+  const std::string out = (dir / "st").string();
+  const alc_test::CliRun a = alc_test::run_alc(
+      "replay --case A --nc-out \"" + out + "\" --machine \"" + (dir / "g55.toml").string() + "\"", "replay_cli_stale");
+  REQUIRE(a.exit_code == 0);
+  CHECK(a.err.find("removed") == std::string::npos);
+  REQUIRE(fs::exists(dir / "st" / "program.ngc"));
+  write_text(dir / "st" / "notes.txt", "the operator's\n");
+  const alc_test::CliRun b = alc_test::run_alc("replay --case B --nc-out \"" + out + "\" --dialect fanuc", "replay_cli_stale");
+  INFO(b.err);
+  REQUIRE(b.exit_code == 0);
+  CHECK_THAT(b.err, Catch::Matchers::Contains("case B: removed " + (dir / "st" / "program.ngc").string() +
+                                              ", the program of an earlier run in another dialect (this run's is " +
+                                              (dir / "st" / "program.nc").string() + ")"));
+  CHECK_FALSE(fs::exists(dir / "st" / "program.ngc"));
+  const std::string program = read_text(dir / "st" / "program.nc");
+  CHECK_THAT(program, Catch::Matchers::Contains("G90 G10 L2 P1") && !Catch::Matchers::Contains("P2"));
+  CHECK(read_text(dir / "st" / "notes.txt") == "the operator's\n");  // not ALC's: left alone
+  // Nothing but commands.jsonl, program.nc, safety.jsonl and the operator's file.
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir / "st")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"commands.jsonl", "notes.txt", "program.nc", "safety.jsonl"});
   fs::remove_all(dir);
 }
 

@@ -29,6 +29,9 @@ using alc::nc::test::Simulator;
 
 namespace {
 
+// G54 of an A-C machine whose work offset is 0, every axis given (G10 L2 writes base + compensation).
+constexpr const char* kZeroG54 = "[nc.base.G54]\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 0.0\na_deg = 0.0\nc_deg = 0.0\n";
+
 int sim_port() { return 20000 + static_cast<int>((::getpid() + 7919) % 20000); }
 
 // A session of the test's own with the simulator's linuxcncrsh on `port`.
@@ -112,7 +115,7 @@ std::size_t events_of(const Client& c, const std::string& type) {
 void SimulatorSetup::configure(const scenarios::Scenario& s, const std::string& machine,
                                const std::string& nc_extra) const {
   // The simulator's G54 is 0: its base, given (G10 L2 writes base + compensation).
-  write(dir / "machine.toml", machine + "\n[nc.base.G54]\n");
+  write(dir / "machine.toml", machine + "\n" + kZeroG54);
   write(dir / "s.toml", nc_config(s, broker.port, port, nc_extra));
 }
 
@@ -275,7 +278,7 @@ TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the 
   const auto& names = twin_case.truth.error_names;
   const int truth_z = static_cast<int>(std::find(names.begin(), names.end(), "E_Z0T") - names.begin());
   REQUIRE(truth_z < static_cast<int>(names.size()));
-  write(dir / "machine.toml", "[nc.base.G54]\n");  // the simulator's G54 is 0
+  write(dir / "machine.toml", kZeroG54);  // the simulator's G54 is 0
   constexpr double kFeed = 30.0;  // [mm/min]
   // The NC probe cycle measures E_Z0T only: it is the one output (others would never be identified).
   std::string config = nc_config(s, broker.port, port,
@@ -333,7 +336,7 @@ TEST_CASE("nc loop: probe = linuxcnc runs G38.2 on the simulator and learns the 
 namespace {
 
 // The config's [nc] `nc`, with a machine file giving G54's base (`machine`) unless `machine` is empty.
-std::string nc_error_of(const std::string& nc, const std::string& machine = "[nc.base.G54]\nx_mm = -350.0\n") {
+std::string nc_error_of(const std::string& nc, const std::string& machine = "[nc.base.G54]\nx_mm = -350.0\ny_mm = 0.0\nz_mm = -420.0\na_deg = 0.0\nc_deg = 0.0\n") {
   const fs::path dir = temp_dir("nc-config");
   std::string base = "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_Z0T\"]\n"
                      "[history]\ndb = \"h.sqlite\"\n[nc]\n";
@@ -375,9 +378,21 @@ TEST_CASE("nc config: sinks, probe and linuxcncrsh keys are checked with the key
              Catch::Contains("key 'nc.machine', value \"m.toml\": fanuc writes G10 L2") &&
                  Catch::Contains("[nc.base.G54]"));
   CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\ndialect = \"sinumerik\"\n", "").empty());  // adds to it
-  CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\n", "[nc]\nwork_offset = \"G55\"\n[nc.base.G55]\n").empty());
+  CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\n", "[nc]\nwork_offset = \"G55\"\n[nc.base.G55]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 0\nc_deg = 0\n").empty());
+  // Every axis G10 L2 writes needs its base, not only the table: a partial table (X only) would set the
+  // operator's Y, Z, A, C to the compensation alone. Before, the missing keys were taken as 0.
+  CHECK_THAT(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\n", "[nc.base.G54]\nx_mm = -350.0\n"),
+             Catch::Contains("key 'nc.machine', value \"m.toml\": [nc.base.G54] (line 1) lacks key 'nc.base.G54.y_mm', "
+                             "'nc.base.G54.z_mm', 'nc.base.G54.a_deg', 'nc.base.G54.c_deg'") &&
+                 Catch::Contains("G54 Y, Z, A, C would become the compensation alone"));
+  CHECK(nc_error_of("sink = \"spool\"\nspool_dir = \"out\"\ndialect = \"sinumerik\"\n", "[nc.base.G54]\nx_mm = -350.0\n")
+            .empty());  // the fine offset adds to the operator's: no base is written
+  // A base for the tilt axis the chain does not have: the machine file itself is refused, with its line.
+  CHECK_THAT(nc_error_of("", "[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\nb_deg = 5.0\nc_deg = 0\n"),
+             Catch::Contains("key 'nc.machine'") &&
+                 Catch::Contains("m.toml: key 'nc.base.G54.b_deg' (line 5): the machine's chain (kinematics.chain) is A-C"));
   const fs::path dir = temp_dir("nc-config-ok");
-  write(dir / "m.toml", "[nc.base.G54]\n");
+  write(dir / "m.toml", kZeroG54);
   const auto c = supervisor::parse_supervisor_config(
       "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_Z0T\"]\n[history]\ndb = \"h.sqlite\"\n"
       "[nc]\nmachine = \"m.toml\"\nsink = \"spool\"\nspool_dir = \"out\"\nprobe = \"linuxcnc\"\nport = 6000\n"
@@ -433,7 +448,7 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   const fs::path dir = temp_dir("nc-spool");
   fs::create_directories(dir / "spool");
   const scenarios::Scenario s = case_a(5.0);
-  write(dir / "machine.toml", "[nc.base.G54]\n");
+  write(dir / "machine.toml", kZeroG54);
   write(dir / "s.toml", short_cp_config(s, 1) +
                             "[nc]\nmachine = \"machine.toml\"\nsink = \"spool\"\nspool_dir = \"spool\"\nretry_s = 0.001\n");
   const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
@@ -468,6 +483,10 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
     std::string last_g10;
     for (const auto& f : files) {
       std::ifstream in(f);
+      std::string first;
+      std::getline(in, first);
+      // The header names the supervisor as the writer (before: "written by alc nc").
+      CHECK(first.rfind("(ALC thermal compensation, written by alc supervise:", 0) == 0);
       for (std::string line; std::getline(in, line);)
         if (line.rfind("G21 G10 L2 P1", 0) == 0) last_g10 = line;
     }
@@ -515,7 +534,7 @@ TEST_CASE("supervisor: an output that is no location error of the C axis is name
   // place that says so is this warning at start.
   const auto warnings_of = [](const std::string& sink) {
     const fs::path dir = temp_dir("nc-typo");
-    write(dir / "m.toml", "[nc.base.G54]\n");
+    write(dir / "m.toml", kZeroG54);
     fs::create_directories(dir / "out");
     const auto config = supervisor::parse_supervisor_config(
         "machine_id = \"m\"\n[signals]\ninputs = [\"T\"]\noutputs = [\"E_X0C\", \"E_ZOT\"]\n[history]\ndb = "

@@ -137,7 +137,7 @@ TEST_CASE("a history.db or spool_dir in a directory that is not there and a tls_
   CHECK(cadir_code == 2);
   CHECK_THAT(cadir_out, Catch::Contains("key 'mqtt.tls_ca_file'") && Catch::Contains("cannot be read as a file"));
   // A spool directory that is not there: before, found at the first offsets (not delivered).
-  write(dir / "machine.toml", "[nc.base.G54]\n");
+  write(dir / "machine.toml", "[nc.base.G54]\nx_mm = 0\ny_mm = 0\nz_mm = 0\na_deg = 0\nc_deg = 0\n");
   const auto [spool_code, spool_out] =
       run(config_text() + "[nc]\nmachine = \"machine.toml\"\nsink = \"spool\"\nspool_dir = \"nospool\"\n");
   CHECK(spool_code == 2);

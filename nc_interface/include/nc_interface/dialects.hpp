@@ -34,7 +34,17 @@ struct BaseOffset {
   double b_deg = 0.0; // [°]
   double c_deg = 0.0; // [°]
   bool given = false; // written in the machine file ([nc.base.Gxx]); see missing_base()
+  // Which axes the machine file's table gives, in X Y Z A B C order (a key left out would be written
+  // as 0 by G10 L2), and the table's line in the file (0: not known). See missing_base().
+  std::array<bool, 6> axes{};
+  int line = 0;
 };
+
+// The command a program's header comment names as its writer (linuxcnc: "written by alc nc"); fixed
+// text, never user input.
+enum class ProgramWriter { AlcNc, AlcReplay, AlcSupervise };
+// "alc nc", "alc replay", "alc supervise".
+std::string_view program_writer_name(ProgramWriter writer);
 
 struct DialectOptions {
   std::array<BaseOffset, 6> base{};            // index 0 = G54 … 5 = G59
@@ -44,6 +54,7 @@ struct DialectOptions {
   int sinumerik_interval_r = 100;              // R0…R999 (retentive)
   int heidenhain_interval_qr = 100;            // QR0…QR499 (retentive)
   std::string heidenhain_program_name = "ALCCOMP";  // [A-Z0-9_], 1…16 characters
+  ProgramWriter writer = ProgramWriter::AlcNc;  // named in the linuxcnc program's header comment
 };
 
 // Empty if usable, else which option is out of range (names the option and the value).
@@ -51,8 +62,11 @@ std::string validate(const DialectOptions& options);
 // Empty if `dialect` may write axis offsets to `work_offset` (1 = G54) on a machine, else why not:
 // LinuxCNC and Fanuc write G10 L2, which replaces the whole work offset with base + compensation, so
 // a base that is not given (a default of 0) would set the operator's work offset to the compensation
-// alone (G54 X-350 Z-420 becoming X0.0083 Z0.006). Sinumerik and Heidenhain add to it: always empty.
-std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset);
+// alone (G54 X-350 Z-420 becoming X0.0083 Z0.006). That holds per axis: the table must give every
+// axis the program writes, X, Y, Z, C and `tilt_axis` ('A' or 'B'; 0 for a program without a tilt
+// word). The reason names the table ([nc.base.G54], with its line when known) and the keys missing.
+// Sinumerik and Heidenhain add to the work offset: always empty.
+std::string missing_base(Dialect dialect, const DialectOptions& options, int work_offset, char tilt_axis);
 // Empty if the command can be written, else what is wrong (field and value).
 std::string validate(const NcCommand& command);
 

@@ -16,7 +16,8 @@
 
 namespace alc::nc {
 
-// A line that is not a valid command. The message reads `SOURCE:LINE: reason (field 'F'): value 'V'`.
+// A line that is not a valid command. The message reads `SOURCE:LINE: reason (field 'F'): value 'V'`
+// (without `: value 'V'` where there is no value: a field missing or given twice).
 class JsonlError : public std::runtime_error {
  public:
   JsonlError(std::string source, std::size_t line, std::string field, std::string value, const std::string& reason);

@@ -18,8 +18,9 @@
 //   sinumerik_interval_r = 100
 //   heidenhain_interval_qr = 100
 //   heidenhain_program_name = "ALCCOMP"
-//   [nc.base.G54]                        # operator's work offset (LinuxCNC, Fanuc write base + comp)
-//   x_mm = 0.0  y_mm = 0.0  z_mm = 0.0  a_deg = 0.0  b_deg = 0.0  c_deg = 0.0
+//   [nc.base.G54]                        # operator's work offset (LinuxCNC, Fanuc write base + comp):
+//   x_mm = 0.0  y_mm = 0.0  z_mm = 0.0  a_deg = 0.0  c_deg = 0.0   # every axis written; b_deg for B-C
+//                                        # (a_deg on a B-C chain or b_deg on an A-C chain is an error)
 //
 //   [limits]
 //   on_step_violation = "refuse"         # or "split"
@@ -47,14 +48,17 @@ struct MachineConfig {
   std::string content_hash;
 };
 
-// A config that cannot be used. The message reads `FILE: key 'KEY': reason: value 'VALUE'`.
+// A config that cannot be used. The message reads `FILE: key 'KEY': reason: value 'VALUE'`, with
+// ` (line N)` after the key where the error names the key's line, and without `: value …` where the
+// key has no value (not in the file, e.g. a default that conflicts with another key).
 class ConfigError : public std::runtime_error {
  public:
-  ConfigError(std::string file, std::string key, std::string value, const std::string& reason);
+  ConfigError(std::string file, std::string key, std::string value, const std::string& reason, int line = 0);
   std::string file;
   std::string key;    // dotted path, e.g. "limits.max_step.x_mm"
   std::string value;  // the offending value as TOML text
   std::string reason;
+  int line = 0;       // the key's line in the file, 0 when not given
 };
 
 MachineConfig parse_machine_config(const std::string& toml_text, const std::string& source_name);

@@ -58,10 +58,15 @@ struct NcOutputSummary {
   std::size_t split = 0;
   // [µm/m] largest non_compensable_um_per_m of the axis-offset commands given (0 if none has one).
   double max_non_compensable_um_per_m = 0.0;
+  // The programs of the other dialects that an earlier run left in DIR (program.ngc, program.nc,
+  // program.mpf, program.h: only these names), removed so that DIR holds one run's output.
+  std::vector<std::filesystem::path> removed;
 };
 
 // Writes DIR/commands.jsonl, DIR/program.<ext> and DIR/safety.jsonl, each atomically
-// (io::write_file_atomically). The gate is recorder_for(dialect, limits). Throws
+// (io::write_file_atomically), then removes the program another dialect would have written there
+// (DIR/program.<ext of another dialect>, a file or a symbolic link; nothing else), which an earlier
+// run into DIR left beside the new commands (summary.removed). The gate is recorder_for(dialect, limits). Throws
 // std::invalid_argument for bad options, std::runtime_error when a file cannot be written (the message names the path).
 NcOutputSummary write_replay_nc_output(const std::filesystem::path& dir, Dialect dialect,
                                        const std::vector<NcCommand>& commands, const DialectOptions& options = {},

@@ -16,10 +16,13 @@
 //   at max_step per `limits.step_period_s` of scenario time (a rate limit: over any span T an axis
 //   moves by at most max_step × (1 + T / step_period_s), whatever the sampling); while the request
 //   falls short of the target, every following controller cycle is a moment too (one step per cycle
-//   until the target is reached). An axis_offsets command is
-//   emitted when some axis of the request differs from the last emitted command (zero at the start)
-//   by at least `resolution` (0.0001 mm / 0.0001°, the NC resolution). A refused request (beyond
-//   max_offset) stops the stepping until the next regular moment.
+//   until the target is reached). Steps are judged and taken in printed values (what the NC
+//   receives): from the offsets in force as printed, whole NC ticks (0.0001), at most the budget and
+//   at most max_step as the gate counts a change, so the gate never refuses a step chosen here. An
+//   axis_offsets command is emitted when some axis of the request differs from the last emitted
+//   command (zero at the start) by at least `resolution` (0.0001 mm / 0.0001°, the NC resolution), or,
+//   while stepping, when it prints differently. A refused request (beyond max_offset) stops the
+//   stepping until the next regular moment.
 // - Every ProbeIntervalChange event gives a probe_interval command (an infinite interval: "never").
 // - What the offsets cannot cancel is kept, not dropped: every axis_offsets command carries the
 //   non_compensable_um_per_m of the compensation of the prediction it moves toward (also in
@@ -93,7 +96,8 @@ class NcCommandObserver : public Observer {
     double budget_s = -kInf;      // [s] when the budget was last refilled
   };
   State state() const { return {last_, in_force_, behind_, next_periodic_s_, budget_, budget_s_}; }
-  // Continues from `state` (the gate takes state.in_force as the offsets in force).
+  // Continues from `state` (the gate takes state.in_force as the offsets in force; state() gives them
+  // back as printed, whatever the values given).
   void restore(const State& state);
   // Drops the commands and decisions kept so far (commands(), recorder()): a long-running user keeps
   // memory bounded; counts and the state stay.
@@ -109,7 +113,7 @@ class NcCommandObserver : public Observer {
   nc::CommandRecorder recorder_;
   std::vector<nc::NcCommand> commands_;
   nc::AxisOffsets last_;               // last emitted offsets (zero at the start)
-  nc::AxisOffsets in_force_;           // what the gate let through last (zero at the start)
+  nc::AxisOffsets in_force_;           // what the gate let through last, as printed (zero at the start)
   bool behind_ = false;                // in_force_ has not reached the latest target yet
   double next_periodic_s_ = -kInf;     // [s]
   nc::AxisLimits budget_;              // the rate limit's budget per axis (max_step at the start)
