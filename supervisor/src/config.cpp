@@ -234,7 +234,6 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   if (auto v = s.number("stale_after_s", 0.0)) c.signals.stale_after_s = *v;
   if (auto v = s.number("probe_timeout_s", 0.0)) c.signals.probe_timeout_s = *v;
   if (auto v = s.number("max_gap_s", 0.0)) c.signals.max_gap_s = *v;
-  if (auto v = s.integer("clock_reset_samples", 2, 1000)) c.signals.clock_reset_samples = static_cast<int>(*v);
   s.no_unknown_keys();
 
   Section h = top.sub("history");

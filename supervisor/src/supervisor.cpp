@@ -1,12 +1,10 @@
 #include "supervisor/supervisor.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
 #include "common/number_text.hpp"
-#include "common/strict_json.hpp"
 #include "common/utf8.hpp"
 #include "nc_interface/commands.hpp"
 #include "runtime/history_recorder.hpp"
@@ -62,14 +60,6 @@ Json time_json(double v) { return std::isfinite(v) ? Json(v) : Json(v > 0 ? "inf
 double time_of(const Json& j) {
   if (j.is_string()) return j.get<std::string>() == "inf" ? kInf : -kInf;
   return j.get<double>();
-}
-
-// The payload with its time_s replaced: a message taken in controller time is journaled so, and a
-// restart reads it back as it was taken.
-std::string with_time(const std::string& payload, double time_s) {
-  Json j = common::parse_json_text(payload);  // as the message was parsed
-  j["time_s"] = time_s;
-  return j.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 }  // namespace
@@ -241,7 +231,7 @@ void Supervisor::begin_or_resume() {
   // Everything accepted after the snapshot, again, in the order it was accepted.
   recovering_ = true;
   const auto entries = inbox_->from(next_seq_);
-  for (const InboxEntry& e : entries) process(e.kind, e.payload, e.seq, false);
+  for (const InboxEntry& e : entries) process(e.kind, e.payload, e.seq);
   recovering_ = false;
   logger()->info("run {} resumed from its snapshot at t = {} s and {} inbox entries after it", run, snap.time_s,
                  entries.size());
@@ -253,7 +243,6 @@ std::string Supervisor::extras_json() const {
               {"compensation", std::vector<double>(compensation_.data(), compensation_.data() + compensation_.size())},
               {"last_offsets_s", time_json(last_offsets_s_)},
               {"last_received_s", time_json(last_received_s_)},
-              {"clock_offset_s", clock_offset_s_},
               {"nc_last", offsets_json(st.last)},
               {"nc_in_force", offsets_json(st.in_force)},
               {"nc_behind", st.behind},
@@ -276,7 +265,6 @@ void Supervisor::restore_extras(const std::string& text, double snapshot_s) {
     compensation_(static_cast<Eigen::Index>(i)) = comp[i];
   last_offsets_s_ = time_of(j.at("last_offsets_s"));
   last_received_s_ = time_of(j.at("last_received_s"));
-  clock_offset_s_ = j.value("clock_offset_s", 0.0);  // a snapshot of a build before clock resets has none
   runtime::NcCommandObserver::State st;
   const int wo = config_.machine.work_offset;
   st.last = offsets_of(j.at("nc_last"), wo);
@@ -331,7 +319,7 @@ void Supervisor::on_message(const std::string& topic, const std::string& payload
     return publish("state", state_json(true), true);
   }
   const std::int64_t before = counts_.received;
-  process(topic, payload, -1, true);
+  process(topic, payload, -1);
   after_message_nc();
   if (counts_.received != before) {
     last_sample_wall_s_ = wall_s;
@@ -355,17 +343,11 @@ void Supervisor::on_wall_clock(double wall_s) {
 }
 
 // seq: the inbox entry being processed again (recovery), or -1 for a message just received.
-void Supervisor::process(const std::string& topic, const std::string& payload, std::int64_t seq, bool machine_time) {
-  // A message received after the machine's clock was set back is taken in controller time (machine
-  // time + clock_offset_s_), and journaled so.
-  const bool shift = machine_time && clock_offset_s_ != 0.0;
+void Supervisor::process(const std::string& topic, const std::string& payload, std::int64_t seq) {
   if (topic == "sample") {
     auto parsed = parse_sample(payload, config_.signals.inputs);
     if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
-    SampleMessage m = std::move(std::get<SampleMessage>(parsed));
-    const double machine_s = m.time_s;
-    if (machine_time) m.time_s += clock_offset_s_;
-    const std::string taken = shift ? with_time(payload, m.time_s) : payload;
+    const SampleMessage& m = std::get<SampleMessage>(parsed);
     // What the controller would refuse in the sample itself (an input beyond its plausible limit) is
     // refused here, before the journal: a rejected sample changes nothing, not even the latest time.
     if (const std::string why = controller_.sample_problem(m.time_s, m.inputs); !why.empty()) return reject(topic, why);
@@ -385,19 +367,11 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
                           common::shortest_text(m.time_s) + " s) does not confirm it: set aside");
       }
     }
-    if (m.time_s < last_received_s_) {
-      if (seq < 0) return backward_sample(m, payload, machine_s);
+    if (m.time_s < last_received_s_)
       return reject(topic, "time goes backwards: time_s = " + common::shortest_text(m.time_s) + " s after " +
                                common::shortest_text(last_received_s_) + " s");
-    }
-    if (!backward_.empty()) {
-      logger()->info("{} samples that went back in time are not followed by a clock reset: the next one (time_s = {} s) "
-                     "is after the latest accepted ({} s)",
-                     backward_.size(), m.time_s, last_received_s_);
-      backward_.clear();
-    }
     if (seq < 0 && std::isfinite(last_received_s_) && m.time_s > last_received_s_ + gap) {
-      jump_.emplace(m, taken);
+      jump_.emplace(m, payload);
       event({{"type", "TimeJump"},
              {"time_s", m.time_s},
              {"reason", "time jumps ahead by " + common::shortest_text(m.time_s - last_received_s_) +
@@ -405,13 +379,12 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
                             " s: held until the next sample confirms it"}});
       return;
     }
-    return accept_sample(m, taken, seq);
+    return accept_sample(m, payload, seq);
   }
   if (topic == "probe/result") {
     auto parsed = parse_probe_result(payload, config_.signals.outputs);
     if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
-    ProbeResultMessage m = std::move(std::get<ProbeResultMessage>(parsed));
-    if (machine_time) m.time_s += clock_offset_s_;
+    const ProbeResultMessage& m = std::get<ProbeResultMessage>(parsed);
     if (!outstanding_ || m.id != outstanding_->id || result_) {
       if (m.id >= next_id_ || m.id < 1) return reject(topic, "unknown probe id " + std::to_string(m.id));
       return reject(topic, "duplicate or late result for probe id " + std::to_string(m.id) +
@@ -427,7 +400,7 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
                                " s is after its timeout at " +
                                common::shortest_text(outstanding_->asked_s + config_.signals.probe_timeout_s) +
                                " s (request + signals.probe_timeout_s)");
-    const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, shift ? with_time(payload, m.time_s) : payload);
+    const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
     entry_seq_ = s;
     result_ = m;
     drain();
@@ -435,91 +408,7 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     return;
   }
   if (topic == "nc/compensation") return apply_probe_compensation(payload);  // journaled, see supervisor_nc.cpp
-  if (topic == "clock/reset" && seq >= 0) {  // journaled by reset_clock
-    entry_seq_ = seq;
-    apply_clock_reset(payload);
-    if (idle()) next_seq_ = seq + 1;
-    return;
-  }
   reject(topic, "not a topic the supervisor reads");
-}
-
-void Supervisor::backward_sample(const SampleMessage& m, const std::string& payload, double machine_s) {
-  std::string reason = "time goes backwards: time_s = " + common::shortest_text(m.time_s) + " s after " +
-                       common::shortest_text(last_received_s_) + " s";
-  // Sent again by the broker (its acknowledgement lost with the connection): rejected, and no sign of a
-  // clock set back (a run of them would otherwise look like one).
-  if (seen_before(m)) return reject("sample", reason);
-  if (!backward_.empty()) {
-    const SampleMessage& before = backward_.back().m;
-    if (!(m.time_s > before.time_s && m.time_s <= before.time_s + config_.signals.max_gap_s)) {
-      // A clock set back gives samples each after the one before (within max_gap_s): these are not.
-      reason += "; it does not follow the " + std::to_string(backward_.size()) + " sample" +
-                (backward_.size() == 1 ? "" : "s") + " before it that went back too (time_s = " +
-                common::shortest_text(backward_.front().m.time_s) +
-                (backward_.size() == 1 ? "" : " s to " + common::shortest_text(before.time_s)) +
-                " s), as samples after a clock set back do (each after the one before, within signals.max_gap_s = " +
-                common::shortest_text(config_.signals.max_gap_s) +
-                " s): no clock reset; those stay rejected and the count starts again from this one";
-      backward_.clear();
-    }
-  }
-  backward_.push_back({m, payload, machine_s});
-  if (backward_.size() >= static_cast<std::size_t>(std::max(2, config_.signals.clock_reset_samples)))
-    return reset_clock();
-  reject("sample", reason);
-}
-
-bool Supervisor::seen_before(const SampleMessage& m) const {
-  const auto same = [&](const SampleMessage& o) {
-    return o.time_s == m.time_s && o.inputs.size() == m.inputs.size() && (o.inputs.array() == m.inputs.array()).all();
-  };
-  if (std::any_of(held_.begin(), held_.end(), same)) return true;
-  if (std::any_of(backward_.begin(), backward_.end(), [&](const Backward& b) { return same(b.m); })) return true;
-  const InputHistory& h = controller_.state().history;
-  const auto it = std::lower_bound(h.time_s.begin(), h.time_s.end(), m.time_s);
-  if (it == h.time_s.end() || *it != m.time_s) return false;
-  const auto row = static_cast<Eigen::Index>(it - h.time_s.begin());
-  return row < h.inputs.rows() && h.inputs.cols() == m.inputs.size() &&
-         (h.inputs.row(row).transpose().array() == m.inputs.array()).all();
-}
-
-// clock_reset_samples samples in a row went back and follow one another: the machine's clock was set
-// back. The offset puts the first of them one sample spacing (its time to the second's) after the
-// latest accepted sample; they are accepted in order, and every later message is shifted alike.
-void Supervisor::reset_clock() {
-  std::vector<Backward> run = std::move(backward_);
-  backward_.clear();
-  const double spacing = run[1].m.time_s - run[0].m.time_s;
-  const double offset = clock_offset_s_ + (last_received_s_ + spacing - run[0].m.time_s);
-  const double latest_machine_s = last_received_s_ - clock_offset_s_;
-  const std::string reason =
-      "machine time went back from " + common::shortest_text(latest_machine_s) + " s to " +
-      common::shortest_text(run[0].machine_s) + " s (" + std::to_string(run.size()) +
-      " samples in a row, each after the one before; signals.clock_reset_samples = " +
-      std::to_string(config_.signals.clock_reset_samples) +
-      "): the machine's clock was set back; they are accepted, the first one sample spacing (" +
-      common::shortest_text(spacing) + " s) after the latest accepted sample; from now on machine time + " +
-      common::shortest_text(offset) + " s";
-  const Json entry = {{"offset_s", offset}, {"time_s", run[0].machine_s + offset}, {"reason", reason}};
-  const std::int64_t s = inbox_->append("clock/reset", entry.dump());
-  entry_seq_ = s;
-  apply_clock_reset(entry.dump());
-  if (idle()) next_seq_ = s + 1;
-  for (const Backward& b : run) {
-    SampleMessage m = b.m;
-    m.time_s = b.machine_s + clock_offset_s_;
-    accept_sample(m, with_time(b.payload, m.time_s), -1);
-  }
-}
-
-void Supervisor::apply_clock_reset(const std::string& payload) {
-  const Json j = Json::parse(payload);
-  clock_offset_s_ = j.at("offset_s").get<double>();
-  backward_.clear();
-  const std::string reason = j.at("reason").get<std::string>();
-  if (!recovering_) logger()->warn("clock reset: {}", reason);
-  event({{"type", "ClockReset"}, {"time_s", j.at("time_s")}, {"offset_s", clock_offset_s_}, {"reason", reason}});
 }
 
 void Supervisor::accept_sample(const SampleMessage& m, const std::string& payload, std::int64_t seq) {
@@ -678,8 +567,7 @@ std::string Supervisor::state_json(bool online) const {
               {"probe_timeouts", counts_.timeouts},
               {"outstanding_probe", outstanding_ ? Json(outstanding_->id) : Json()},
               {"rejected", counts_.rejected},
-              {"stale", stale_},
-              {"clock_offset_s", clock_offset_s_}}
+              {"stale", stale_}}
       .dump();
 }
 

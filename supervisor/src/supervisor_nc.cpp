@@ -197,7 +197,7 @@ void Supervisor::run_nc_probe() {
          {"nominal_z_mm", p.point_mm[2]}, {"output", p.output}, {"measured", measured_um},
          {"reason", "G38.2 on the NC"}});
   const Json result = {{"id", id}, {"time_s", last_received_s_}, {"errors", {{p.output, measured_um}}}};
-  process("probe/result", result.dump(), -1, false);  // controller time already
+  process("probe/result", result.dump(), -1);
 }
 
 }  // namespace alc::supervisor

@@ -1,13 +1,12 @@
 // The supervisor in process (no broker) against messages whose time is wrong: a sample far ahead of
 // the others, a probe result long after its timeout, a probe that is never answered, samples far
-// denser than their clock says, a machine clock set back. None may stall the loop or refuse every
-// later message. And the history's retention, which keeps a run of months bounded on disk.
+// denser than their clock says. None may stall the loop or refuse every later message. And the
+// history's retention, which keeps a run of months bounded on disk.
 #include <catch2/catch.hpp>
 
 #include <fstream>
 #include <optional>
 
-#include "common/number_text.hpp"
 #include "storage/history_reader.hpp"
 #include "supervisor/config.hpp"
 #include "supervisor/supervisor.hpp"
@@ -44,37 +43,6 @@ struct Rig {
   std::string result(std::int64_t id, double time_s) const {
     return Json{{"id", id}, {"time_s", time_s}, {"errors", Json{{"E_X0C", 1.0}}}}.dump();
   }
-  // Rows [from, to) with the machine's clock shifted by shift_s, each probe request answered at once
-  // with a result measured then, in the machine's time (as a gateway does).
-  std::int64_t asked = 0;
-  void play(supervisor::Supervisor& sup, std::size_t from, std::size_t to, double shift_s = 0.0) {
-    for (std::size_t row = from; row < to; ++row) {
-      sup.on_message("sample", sample(row, shift_s), 0.0);
-      const Json request = bus.last("probe/request");
-      if (!request.is_null() && request["id"].get<std::int64_t>() > asked) {
-        asked = request["id"].get<std::int64_t>();
-        sup.on_message("probe/result", result(asked, s.time_s[row] + shift_s), 0.0);
-      }
-    }
-  }
-  // The history's input samples of the run: every one of rows [0, rows) once, in order, at its own
-  // time (the controller's time is the recording's, whatever the machine's clock did).
-  void check_history(std::size_t rows) const {
-    const storage::HistoryReader r(dir / "h.sqlite");
-    const auto samples = r.input_samples(r.runs().back().run_id);
-    CHECK(samples.size() == rows);
-    for (std::size_t k = 0; k < std::min(samples.size(), rows); ++k) {
-      INFO("history row " << k);
-      CHECK(samples[k].sample_index == static_cast<std::int64_t>(k));
-      CHECK(samples[k].time_s == s.time_s[k]);
-    }
-  }
-  std::size_t offsets_after(double time_s) const {
-    std::size_t n = 0;
-    for (const auto& [topic, payload] : bus.out)
-      n += topic == "offsets" && Json::parse(payload)["time_s"].get<double>() > time_s;
-    return n;
-  }
 };
 
 }  // namespace
@@ -105,208 +73,6 @@ TEST_CASE("supervisor: a sample far ahead counts once the next confirms it, a ty
   CHECK(rig.bus.count("TimeJump") == 2);
   CHECK(sup.counts().received == 80);
   CHECK(sup.counts().rejected == 1);  // the typo alone
-}
-
-TEST_CASE("supervisor: a machine clock set back by an hour is taken up by a clock offset after 3 samples, none lost") {
-  Rig rig("clock-back", 4.0);
-  supervisor::Supervisor sup(rig.config, rig.bus, "test");
-  const std::size_t cut = 120;  // 2 h of 1-minute samples, then the machine's clock goes back an hour
-  const std::size_t rows = rig.s.samples();
-  REQUIRE(rig.s.time_s[cut] - rig.s.time_s[cut - 1] == 60.0);
-  rig.play(sup, 0, cut);
-  REQUIRE(sup.counts().received == static_cast<std::int64_t>(cut));
-  const auto probes_before = sup.controller().state().probe_cycles;
-  const double latest_s = rig.s.time_s[cut - 1];
-  // The first two are reported as before (time goes backwards), the third shows the clock set back.
-  rig.play(sup, cut, cut + 1, -3600.0);
-  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""),
-             Catch::Equals("time goes backwards: time_s = " + common::shortest_text(rig.s.time_s[cut] - 3600.0) +
-                           " s after " + common::shortest_text(latest_s) + " s"));
-  rig.play(sup, cut + 1, cut + 2, -3600.0);
-  CHECK(rig.bus.count("ClockReset") == 0);
-  CHECK(sup.counts().received == static_cast<std::int64_t>(cut));
-  rig.play(sup, cut + 2, cut + 3, -3600.0);
-  REQUIRE(rig.bus.count("ClockReset") == 1);
-  const Json reset = rig.bus.last_event("ClockReset");
-  INFO(reset.dump());
-  CHECK(reset["offset_s"].get<double>() == 3600.0);
-  CHECK(reset["time_s"].get<double>() == rig.s.time_s[cut]);
-  CHECK_THAT(reset.value("reason", ""),
-             Catch::Contains("machine time went back from " + common::shortest_text(latest_s) + " s to " +
-                             common::shortest_text(rig.s.time_s[cut] - 3600.0) + " s") &&
-                 Catch::Contains("from now on machine time + 3600 s"));
-  // The three held ones are accepted, shifted back to where they belong.
-  CHECK(sup.counts().received == static_cast<std::int64_t>(cut + 3));
-  CHECK(Json::parse(sup.state_json(true))["clock_offset_s"].get<double>() == 3600.0);
-  // Every later sample and probe result, in machine time, is shifted alike.
-  rig.play(sup, cut + 3, rows, -3600.0);
-  CHECK(sup.counts().received == static_cast<std::int64_t>(rows));  // before: the next hour refused
-  CHECK(sup.counts().rejected == 2);
-  CHECK(rig.bus.count("ProbeTimeout") == 0);
-  // Probe results in machine time are shifted alike: each request after the reset answered and learned.
-  CHECK(sup.controller().state().probe_cycles > probes_before);
-  CHECK(sup.controller().state().probe_cycles == sup.counts().requests);
-  CHECK(sup.held() == 0);
-  CHECK(sup.controller().state().now_s == rig.s.time_s[rows - 1]);
-  // Offsets keep going out (at least every 15 min of machine time) in the controller's time.
-  CHECK(rig.offsets_after(latest_s) >= static_cast<std::size_t>((rig.s.time_s[rows - 1] - latest_s) / 900.0) - 1);
-  CHECK(rig.bus.last("offsets")["time_s"].get<double>() >= rig.s.time_s[rows - 1] - 900.0);
-  sup.stop();
-  rig.check_history(rows);
-}
-
-TEST_CASE("supervisor: one or two late samples, a duplicate and samples the broker sends again are rejected as before, no clock reset") {
-  Rig rig("clock-late", 2.0);
-  supervisor::Supervisor sup(rig.config, rig.bus, "test");
-  rig.play(sup, 0, 40);
-  const auto reason = [&](double t, double after) {
-    return "time goes backwards: time_s = " + common::shortest_text(t) + " s after " + common::shortest_text(after) + " s";
-  };
-  // One late sample, then the usual ones.
-  const double t39 = rig.s.time_s[39];
-  Json late = Json::parse(rig.sample(39));
-  late["time_s"] = t39 - 30.0;
-  sup.on_message("sample", late.dump(), 0.0);
-  CHECK(rig.bus.last_event("MessageRejected").value("reason", "") == reason(t39 - 30.0, t39));
-  rig.play(sup, 40, 50);
-  CHECK(sup.counts().received == 50);
-  // Two that follow one another, then the usual ones.
-  const double t49 = rig.s.time_s[49];
-  for (const double back : {120.0, 60.0}) {
-    Json j = Json::parse(rig.sample(49));
-    j["time_s"] = t49 - back;
-    j["inputs"][rig.s.input_names[0]] = 25.5;
-    sup.on_message("sample", j.dump(), 0.0);
-    CHECK(rig.bus.last_event("MessageRejected").value("reason", "") == reason(t49 - back, t49));
-  }
-  rig.play(sup, 50, 55);
-  CHECK(sup.counts().received == 55);
-  // A duplicate of the latest, and the last five sent again (the broker's redelivery after a lost
-  // acknowledgement): each rejected as before; five in a row that follow one another are no clock set back.
-  sup.on_message("sample", rig.sample(54), 0.0);
-  CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::StartsWith("duplicate sample"));
-  for (std::size_t row = 50; row < 54; ++row) {
-    sup.on_message("sample", rig.sample(row), 0.0);
-    CHECK(rig.bus.last_event("MessageRejected").value("reason", "") == reason(rig.s.time_s[row], rig.s.time_s[54]));
-  }
-  CHECK(rig.bus.count("ClockReset") == 0);
-  CHECK(sup.counts().rejected == 1 + 2 + 1 + 4);
-  rig.play(sup, 55, 70);
-  CHECK(sup.counts().received == 70);
-  CHECK(rig.bus.count("ClockReset") == 0);
-  CHECK(Json::parse(sup.state_json(true))["clock_offset_s"].get<double>() == 0.0);
-  sup.stop();
-  rig.check_history(70);
-}
-
-TEST_CASE("supervisor: backward samples that do not follow one another do not reset the clock") {
-  Rig rig("clock-inconsistent", 2.0);
-  supervisor::Supervisor sup(rig.config, rig.bus, "test");
-  rig.play(sup, 0, 40);
-  const double t39 = rig.s.time_s[39];
-  const auto send = [&](double t) {
-    Json j = Json::parse(rig.sample(39));
-    j["time_s"] = t;
-    sup.on_message("sample", j.dump(), 0.0);
-    return rig.bus.last_event("MessageRejected").value("reason", "");
-  };
-  CHECK_THAT(send(t39 - 3600.0), Catch::StartsWith("time goes backwards"));
-  CHECK_THAT(send(t39 - 3540.0), Catch::StartsWith("time goes backwards"));
-  // Earlier than the one before: the two held are set aside, the count starts again from this one.
-  CHECK_THAT(send(t39 - 7200.0), Catch::StartsWith("time goes backwards") &&
-                                     Catch::Contains("does not follow the 2 samples before it") &&
-                                     Catch::Contains("no clock reset"));
-  CHECK_THAT(send(t39 - 7140.0), Catch::Equals("time goes backwards: time_s = " + common::shortest_text(t39 - 7140.0) +
-                                               " s after " + common::shortest_text(t39) + " s"));
-  // More than max_gap_s (3600 s) after the one before: set aside too.
-  CHECK_THAT(send(t39 - 7140.0 + 3660.0), Catch::Contains("does not follow the 2 samples before it"));
-  CHECK(rig.bus.count("ClockReset") == 0);
-  CHECK(sup.counts().rejected == 5);
-  rig.play(sup, 40, 60);
-  CHECK(sup.counts().received == 60);
-  CHECK(rig.bus.count("ClockReset") == 0);
-  CHECK(Json::parse(sup.state_json(true))["clock_offset_s"].get<double>() == 0.0);
-  sup.stop();
-  rig.check_history(60);
-}
-
-TEST_CASE("supervisor: the clock offset survives a restart and a kill -9, each sample stored once") {
-  const std::size_t cut = 90;  // 1.5 h; snapshots every 2 h: the kill -9 recovers through the inbox
-  SECTION("stopped and started again") {
-    Rig rig("clock-restart", 4.0);
-    {
-      supervisor::Supervisor sup(rig.config, rig.bus, "test");
-      rig.play(sup, 0, cut);
-      rig.play(sup, cut, cut + 20, -3600.0);
-      REQUIRE(rig.bus.count("ClockReset") == 1);
-      sup.stop();
-    }
-    supervisor::Supervisor sup(rig.config, rig.bus, "test");
-    CHECK(Json::parse(sup.state_json(true))["clock_offset_s"].get<double>() == 3600.0);
-    rig.play(sup, cut + 20, rig.s.samples(), -3600.0);
-    CHECK(rig.bus.count("ClockReset") == 1);
-    CHECK(sup.counts().received == static_cast<std::int64_t>(rig.s.samples()));
-    CHECK(sup.counts().rejected == 2);
-    sup.stop();
-    rig.check_history(rig.s.samples());
-  }
-  SECTION("killed (SIGKILL, no stop) and recovered") {
-    Rig rig("clock-kill", 4.0);
-    // The first process in a child, killed a few samples after the reset: nothing is saved on the way out.
-    const pid_t pid = ::fork();
-    REQUIRE(pid >= 0);
-    if (pid == 0) {
-      try {
-        supervisor::Supervisor sup(rig.config, rig.bus, "test");
-        rig.play(sup, 0, cut);
-        rig.play(sup, cut, cut + 10, -3600.0);
-        if (rig.bus.count("ClockReset") != 1 || sup.counts().received != static_cast<std::int64_t>(cut + 10)) ::_exit(3);
-        ::kill(::getpid(), SIGKILL);
-      } catch (...) {
-      }
-      ::_exit(4);
-    }
-    REQUIRE(wait_exit(pid) == 128 + SIGKILL);
-    supervisor::Supervisor sup(rig.config, rig.bus, "test");
-    CHECK(Json::parse(sup.state_json(true))["clock_offset_s"].get<double>() == 3600.0);
-    CHECK(sup.counts().received == static_cast<std::int64_t>(cut + 10));
-    CHECK(sup.controller().state().now_s == rig.s.time_s[cut + 9]);
-    // The last one sent again by the broker after the restart is a duplicate, as before.
-    sup.on_message("sample", rig.sample(cut + 9, -3600.0), 0.0);
-    CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""), Catch::StartsWith("duplicate sample"));
-    rig.play(sup, cut + 10, rig.s.samples(), -3600.0);
-    CHECK(rig.bus.count("ClockReset") == 0);  // the recovery publishes nothing, the offset was journaled
-    CHECK(sup.counts().received == static_cast<std::int64_t>(rig.s.samples()));
-    CHECK(rig.bus.count("ProbeTimeout") == 0);
-    sup.stop();
-    rig.check_history(rig.s.samples());
-  }
-}
-
-TEST_CASE("supervisor: signals.clock_reset_samples is a whole number of at least 2") {
-  const fs::path dir = temp_dir("clock-config");
-  const std::string base = case_config(case_a(1.0), 1);
-  const auto with = [&](const std::string& line) {
-    std::string text = base;
-    text.insert(text.find("[history]"), line + "\n");
-    return text;
-  };
-  const auto error_of = [&](const std::string& text) -> std::string {
-    try {
-      supervisor::parse_supervisor_config(text, dir / "s.toml");
-    } catch (const supervisor::ConfigError& e) {
-      return e.what();
-    }
-    return "";
-  };
-  CHECK(supervisor::parse_supervisor_config(base, dir / "s.toml").signals.clock_reset_samples == 3);
-  CHECK(supervisor::parse_supervisor_config(with("clock_reset_samples = 5"), dir / "s.toml").signals.clock_reset_samples == 5);
-  CHECK_THAT(error_of(with("clock_reset_samples = 1")),
-             Catch::Contains("key 'signals.clock_reset_samples', value 1: not a whole number from 2 to 1000"));
-  CHECK_THAT(error_of(with("clock_reset_samples = 2.5")),
-             Catch::Contains("key 'signals.clock_reset_samples', value 2.5: not a whole number"));
-  CHECK_THAT(error_of(with("clock_reset_samples = \"3\"")),
-             Catch::Contains("key 'signals.clock_reset_samples', value \"3\": not a whole number"));
 }
 
 TEST_CASE("supervisor: a probe never answered times out once, the next request is judged from when it is asked") {

@@ -43,11 +43,6 @@ struct SignalsConfig {
   // the jump (a clock reset or a typo such as 1e15 would otherwise refuse every later sample as
   // "time goes backwards"); an unconfirmed one is set aside.
   double max_gap_s = 3600.0;
-  // This many samples in a row that go back in time (each before the latest accepted one) but follow
-  // one another (each after the one before, within max_gap_s of it) show that the machine's clock was
-  // set back (a daylight-saving change, a clock corrected, a controller replaced): the supervisor then
-  // keeps a clock offset (controller time = machine time + offset) and goes on. From 2 to 1000.
-  int clock_reset_samples = 3;
 };
 
 struct HistoryConfig {

@@ -9,10 +9,7 @@
 //   to the probe's time_s, then the probe, then the rest are processed, so a late result is learned
 //   from at its own time and the decisions depend only on the order of the samples; offsets do not
 //   change during a probe cycle (the probe measures with one compensation, the one added back);
-// - a result that does not come within probe_timeout_s of machine time is given up and reported;
-// - a machine clock set back (signals.clock_reset_samples samples in a row before the latest one, each
-//   after the one before) is taken up by a clock offset: controller time = machine time + offset. The
-//   supervisor works, journals, stores and publishes in controller time only.
+// - a result that does not come within probe_timeout_s of machine time is given up and reported.
 #include <deque>
 #include <nlohmann/json.hpp>
 #include <memory>
@@ -90,18 +87,7 @@ class Supervisor {
     double asked_s = 0.0;     // the latest sample received when the request went out: the timeout counts from it
     Eigen::VectorXd compensation;  // in force when it was asked for: what the probe measures with
   };
-  // machine_time: the message's time_s is the machine's (a message received), shifted by the clock
-  // offset here; else it is controller time already (an inbox entry, the NC's own probe result).
-  void process(const std::string& topic, const std::string& payload, std::int64_t seq_if_recovering,
-               bool machine_time);
-  // A sample before the latest accepted one (controller time): rejected as before, and held as one of
-  // a run that may show the clock set back; the run's last sample resets the clock.
-  void backward_sample(const SampleMessage& m, const std::string& payload, double machine_s);
-  // The sample was accepted already (a broker's redelivery): same time and inputs as one the
-  // controller holds, one held for a probe, or one held for a clock reset.
-  bool seen_before(const SampleMessage& m) const;
-  void reset_clock();
-  void apply_clock_reset(const std::string& payload);
+  void process(const std::string& topic, const std::string& payload, std::int64_t seq_if_recovering);
   void accept_sample(const SampleMessage& m, const std::string& payload, std::int64_t seq_if_recovering);
   void reject(const std::string& topic, const std::string& reason);
   void drain();
@@ -153,18 +139,6 @@ class Supervisor {
   // A sample more than signals.max_gap_s ahead of the latest, with its payload: accepted when the next
   // sample confirms the jump, set aside when it does not (not journaled until then).
   std::optional<std::pair<SampleMessage, std::string>> jump_;
-  // [s] controller time = machine time + clock_offset_s_ (0 until the machine clock is set back; the
-  // resets add up). Saved with the snapshots and journaled in the inbox ("clock/reset").
-  double clock_offset_s_ = 0.0;
-  // Samples in a row before the latest accepted one, each after the one before (within max_gap_s):
-  // when signals.clock_reset_samples of them have come, the clock was set back. In controller time
-  // (the offset before the reset), with the machine's time and the payload; in memory only.
-  struct Backward {
-    SampleMessage m;
-    std::string payload;
-    double machine_s = 0.0;
-  };
-  std::vector<Backward> backward_;
   std::int64_t next_id_ = 1;
   std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
   std::int64_t entry_seq_ = 0;             // inbox entry being processed
