@@ -142,11 +142,12 @@ void print_report(std::ostream& os, const std::string& title, const runtime::Rep
       }
     }
     // Fewer CP measurements than parameters: the figures are those of no fit (0 or 1: it predicts 0).
-    if (const auto under = b.underdetermined(); !under.empty()) {
-      os << "; underdetermined (fewer CP measurements than its " << b.parameters << " parameters, inputs + 1):";
-      for (const auto& [output, count] : b.fitted_on)
-        if (count < b.parameters) os << " " << output << " " << count;
-    }
+    std::string under;
+    for (const auto& [output, count] : b.fitted_on)
+      if (count < b.parameters) under += " " + output + " " + std::to_string(count);
+    if (!under.empty())
+      os << "; underdetermined (fewer CP measurements than its " << b.parameters << " parameters, inputs + 1):"
+         << under;
     os << "\n";
   }
 }
@@ -329,9 +330,7 @@ void run_replay(const ReplayArgs& a) {
   }
   for (const auto& [name, scenario] : cases)
     if (const std::string why = runtime::scenario_problem(scenario, params, (a.file.empty() ? "case " : "") + name,
-                                                             {a.cp.empty() ? "the default --cp " + common::shortest_text(params.cp_duration_s / 3600.0)
-                                                                          : "--cp " + a.cp,
-                                                              "--since " + a.since});
+                                                             {"--cp", a.cp, "--since", a.since});
         !why.empty())
       throw UsageError(why);
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");

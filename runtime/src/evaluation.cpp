@@ -48,13 +48,6 @@ double ReplayReport::mean_p99(ErrorKind kind, bool of_baseline) const {
 
 double BaselineReport::mean_p99(ErrorKind kind) const { return mean_of(outputs, kind, &OutputIndicators::P99); }
 
-std::vector<std::string> BaselineReport::underdetermined() const {
-  std::vector<std::string> names;
-  for (const auto& [output, count] : fitted_on)
-    if (count < parameters) names.push_back(output);
-  return names;
-}
-
 double ReplayReport::mean_p99_uncompensated(ErrorKind kind) const {
   return mean_of(outputs, kind, &OutputIndicators::P99_uncompensated);
 }

@@ -73,12 +73,15 @@ std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParam
                              const std::string& what, const ScenarioOptionTexts& texts) {
   if (scenario.time_s.empty()) return {};
   const auto hours = [](double s) { return common::shortest_text(s / 3600.0); };
-  const std::string since = texts.since + " h";
+  const auto named = [&](const std::string& option, const std::string& text, double value_s) {
+    return option + " " + (text.empty() ? hours(value_s) : text) + " h";
+  };
+  const auto since = [&] { return named(texts.since_option, texts.since, parameters.learning_since_s); };
   // Learning from a time the recording never reaches: no fit, CP without end, a table of dashes. And
   // one before it begins: --since counts from scenario time 0 (a file stamped in Unix time starts at
   // ~470,000 h), so --since 26 meant as "26 h in" would silently change nothing.
   if (parameters.learning_since_s > scenario.time_s.back())
-    return since + " is after the end of " + what + " (its last sample is at " + hours(scenario.time_s.back()) +
+    return since() + " is after the end of " + what + " (its last sample is at " + hours(scenario.time_s.back()) +
            " h of scenario time): the controller would never learn from a probe";
   // A recording without a single measurement: the same table of dashes, and Pd 100 %.
   if (!scenario.outputs.array().isFinite().any())
@@ -87,11 +90,11 @@ std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParam
            "evaluated";
   // A CP longer than the recording: no model, nothing evaluated, a table of dashes.
   if (scenario.time_s.front() + parameters.cp_duration_s > scenario.time_s.back())
-    return texts.cp + " h is longer than " + what + " (" +
+    return named(texts.cp_option, texts.cp, parameters.cp_duration_s) + " is longer than " + what + " (" +
            hours(scenario.time_s.back() - scenario.time_s.front()) +
            " h): CP would not end, no model would be made and nothing evaluated";
   if (parameters.learning_since_s > 0.0 && parameters.learning_since_s < scenario.time_s.front())
-    return since + " is before the first sample of " + what + " (at " + hours(scenario.time_s.front()) +
+    return since() + " is before the first sample of " + what + " (at " + hours(scenario.time_s.front()) +
            " h of scenario time) and would change nothing: it counts from scenario time 0, not from the first "
            "sample";
   return {};

@@ -6,7 +6,6 @@
 #include <thread>
 
 #include "runtime/driver.hpp"
-#include "common/number_text.hpp"
 #include "runtime/recorded_source.hpp"
 #include "runtime/replay.hpp"
 
@@ -122,10 +121,7 @@ class UnitRunner {
 // Why a valid set cannot run on a case (alc replay refuses it: a CP longer than the recording, a since
 // after its end...): an error row, not a run that never leaves CP and reads as status ok.
 std::string run_problem(const StudyCase& c, const ParameterSet& set) {
-  const auto hours = [](double s) { return common::shortest_text(s / 3600.0); };
-  return runtime::scenario_problem(c.scenario, set.parameters, c.source,
-                                   {"cp = " + hours(set.parameters.cp_duration_s),
-                                    "since = " + hours(set.parameters.learning_since_s)});
+  return runtime::scenario_problem(c.scenario, set.parameters, c.source, {"cp =", "", "since =", ""});
 }
 
 std::vector<Unit> plan_units(const std::vector<StudyCase>& cases, const std::vector<ParameterSet>& sets) {

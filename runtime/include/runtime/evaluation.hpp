@@ -35,10 +35,9 @@ struct BaselineReport {
   // lasso and ols: per output, the inputs the model selected; empty for the others.
   std::vector<std::pair<std::string, std::vector<std::string>>> selected;
   // Per output, the CP measurements the model was fitted on (0 before the end of CP). Fewer than the
-  // inputs + 1 (the linear models' and GM(1,N)'s parameters) is no fit: underdetermined() names them.
+  // inputs + 1 (the linear models' and GM(1,N)'s parameters) is no fit: underdetermined.
   std::vector<std::pair<std::string, int>> fitted_on;
   int parameters = 0;                       // the inputs + 1
-  std::vector<std::string> underdetermined() const;
   double mean_p99(ErrorKind kind) const;    // NaN if there is no output of that kind
 };
 

@@ -51,11 +51,12 @@ std::string resume_problem(bool resume, const std::vector<BaselineKind>& baselin
 // Why `parameters` cannot be replayed on `scenario` (empty if they can): a CP longer than the recording,
 // a --since after its end or before its first sample, a recording without a single measurement (CP
 // would not end, or learning would change nothing: a table of dashes). `what` names the recording
-// ("case A", "a.csv"); `cp` and `since` name the two values as the caller's user wrote them ("--cp 1e6",
-// or a grid's "cp = 300"; the text " h" follows). alc replay refuses such a run, a study makes it an
+// ("case A", "a.csv"); `texts` name the two options as the caller's user writes them ("--cp", or a
+// grid's "cp ="), with the value as written ("1e6"), or empty for the parameter's value in hours (a
+// study: formatted only when there is a problem). alc replay refuses such a run, a study makes it an
 // error row.
 struct ScenarioOptionTexts {
-  std::string cp, since;
+  std::string cp_option, cp, since_option, since;
 };
 std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParameters& parameters,
                              const std::string& what, const ScenarioOptionTexts& texts);
