@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
+#include "common/number_text.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/history_tools.hpp"
@@ -39,13 +40,14 @@ void run_info(const std::string& file) {
     std::cout << ", " << run.input_names.size() << " inputs, " << run.output_names.size() << " outputs";
     const auto span = reader.time_span(run.run_id);
     if (!span.empty)
-      std::cout << ", time_s " << span.first_s << " .. " << span.last_s << " (" << std::setprecision(4)
+      std::cout << ", time_s " << common::shortest_text(span.first_s) << " .. " << common::shortest_text(span.last_s)
+                << " (" << std::setprecision(4)
                 << (span.last_s - span.first_s) / 3600.0 << std::setprecision(6) << " h)";
     if (const auto snapshot = reader.latest_snapshot(run.run_id)) {
       if (snapshot->time_s == storage::kSnapshotBeforeStart_s)
         std::cout << ", latest snapshot before the first sample";
       else
-        std::cout << ", latest snapshot at time_s " << snapshot->time_s;
+        std::cout << ", latest snapshot at time_s " << common::shortest_text(snapshot->time_s);
     }
     if (reader.indicators(run.run_id)) std::cout << ", indicators stored";
     std::cout << "\n";

@@ -111,7 +111,8 @@ void print_report(std::ostream& os, const std::string& title, const runtime::Rep
   os << "  duration " << fmt(r.duration_s / 3600.0, 1) << " h, CP ended at "
      << (std::isfinite(r.cp_end_s) ? fmt(r.cp_end_s / 3600.0, 2) + " h" : std::string("never")) << ", M = " << r.M
      << " probe cycles, Pd = " << fmt(r.Pd) << " %, NG phases " << r.ng_phases << ", model updates " << r.updates
-     << (r.rejected_fits ? ", rejected fits " + std::to_string(r.rejected_fits) : std::string()) << "\n";
+     << (r.rejected_fits ? ", rejected fits " + std::to_string(r.rejected_fits) : std::string())
+     << (r.rejected_samples ? ", samples set aside " + std::to_string(r.rejected_samples) : std::string()) << "\n";
   char line[256];
   std::snprintf(line, sizeof line, "  %-8s %-5s %8s %8s %8s %9s %12s %13s\n", "output", "unit", "PV[%]", "RMSE",
                 "P99", "SMAPE[%]", "P99 uncomp", "P99 baseline");
@@ -333,6 +334,10 @@ void run_replay(const ReplayArgs& a) {
                                                              {"--cp", a.cp, "--since", a.since});
         !why.empty())
       throw UsageError(why);
+  for (const auto& [name, scenario] : cases)
+    if (const std::string note = runtime::sparse_measurements(scenario, params, (a.file.empty() ? "case " : "") + name);
+        !note.empty())
+      log::get("replay")->warn("{}", note);
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;
@@ -389,6 +394,17 @@ void run_replay(const ReplayArgs& a) {
     plans = plan_resume(a.db, sources, stored);
   }
 
+  // The NC output directories are made before any run begins, not when it ends: an --nc-out that
+  // cannot be a directory (a file of that name, say) failed only after a whole replay, its commands
+  // recorded in --db as not delivered.
+  if (!a.nc_out.empty())
+    for (const auto& c : cases) {
+      const auto dir = nc_dir_of(a, c.first, cases.size() > 1);
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      if (ec) throw std::runtime_error("--nc-out: cannot create " + dir.string() + ": " + ec.message());
+    }
+
   KillSwitch kill;
   std::vector<std::pair<std::string, runtime::ReplayReport>> reports;
   std::map<std::string, double> stopped_at_h;  // per case stopped before its end: where [h], to 0.01 h
@@ -432,12 +448,28 @@ void run_replay(const ReplayArgs& a) {
     reports.emplace_back(name, replay->report());
     // CP that never ended (every fit rejected: inputs that do not vary, say): a table of dashes, exit 0
     // (the replay did run); the reason belongs beside it.
-    if (const runtime::ReplayReport& r = reports.back().second; !std::isfinite(r.cp_end_s) && replay->finished()) {
-      const std::string& why = replay->driver().last_rejected_fit();
-      log::get("replay")->warn("{}: CP never ended: {} fits were rejected, so no model was made and nothing was "
-                               "compensated or evaluated{}",
-                               source, r.rejected_fits, why.empty() ? std::string() : "; the last: " + why);
+    const runtime::ReplayReport& r = reports.back().second;
+    const auto rows = static_cast<std::int64_t>(replay->position());
+    const std::string& first_set_aside = replay->driver().first_rejected_sample();
+    const std::string first = first_set_aside.empty() ? std::string() : "; the first: " + first_set_aside;
+    if (!std::isfinite(r.cp_end_s) && replay->finished()) {
+      if (r.rejected_samples == rows)
+        log::get("replay")->warn("{}: CP never ended: every sample ({}) was set aside, so no model was made and "
+                                 "nothing was compensated or evaluated{}",
+                                 source, rows, first);
+      else {
+        const std::string& why = replay->driver().last_rejected_fit();
+        log::get("replay")->warn("{}: CP never ended: {} fits were rejected, so no model was made and nothing was "
+                                 "compensated or evaluated{}",
+                                 source, r.rejected_fits, why.empty() ? std::string() : "; the last: " + why);
+      }
     }
+    if (r.implausible_measurements > 0)
+      log::get("replay")->warn("{}: {} recorded measurement(s) after CP beyond the plausible limit (--plausible-lin, "
+                               "--plausible-ang) were left out of the indicators; the first: {}",
+                               source, r.implausible_measurements, r.first_implausible);
+    if (r.rejected_samples > 0 && r.rejected_samples < rows)
+      log::get("replay")->warn("{}: {} of {} samples were set aside{}", source, r.rejected_samples, rows, first);
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());
   }
   if (reports.empty()) return;

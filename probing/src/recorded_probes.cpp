@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "probing/schedule.hpp"
+
 namespace alc::probing {
 
 RecordedProbes::RecordedProbes(const std::vector<double>& time_s, const Eigen::MatrixXd& errors)
@@ -22,7 +24,7 @@ RecordedProbes::RecordedProbes(const std::vector<double>& time_s, const Eigen::M
 }
 
 std::optional<std::size_t> RecordedProbes::first_at_or_after(double due_s) const {
-  const auto it = std::lower_bound(times_.begin(), times_.end(), due_s);
+  const auto it = std::lower_bound(times_.begin(), times_.end(), due_s - kDueTolerance_s);
   if (it == times_.end()) return std::nullopt;
   return rows_[static_cast<std::size_t>(it - times_.begin())];
 }

@@ -63,15 +63,18 @@ ControllerOutput Driver::sample(const Sample& sample) {
   ControllerOutput out = controller_.on_sample(sample.time_s, sample.inputs);
   if (out.fit) identification_s_ += seconds_since(start);
   if (!out.accepted) {
-    log::get("runtime")->warn("sample {} rejected: {}", sample.index, out.reason);
+    // A dead sensor sets aside every sample for hours: the first ones are told at warn, the rest at
+    // debug (the replay gives their count at its end; the supervisor counts and publishes each).
+    if (rejected_samples_ == 0) first_rejected_sample_ = "sample " + std::to_string(sample.index) + ": " + out.reason;
+    const bool loud = ++rejected_samples_ <= kSamplesToldAtWarn;
+    log::get("runtime")->log(loud ? spdlog::level::warn : spdlog::level::debug, "sample {} rejected: {}{}", sample.index,
+                             out.reason,
+                             rejected_samples_ == kSamplesToldAtWarn ? " (later rejected samples at log level debug)" : "");
     for (Observer* o : observers_) o->on_rejected(sample, nullptr, out.reason);
     return out;
   }
   last_ = sample;
-  for (const ControllerEvent& e : out.events) {
-    if (e.type == ControllerEvent::Type::ModelRejected) last_rejected_fit_ = e.reason;
-    if (told_at_info(e)) log_event(e);
-  }
+  tell(out);
   notify(Cycle::Kind::Sample, nullptr, out, before);
   return out;
 }
@@ -87,6 +90,12 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
     for (Observer* o : observers_) o->on_rejected(last_ ? *last_ : none, &probe, out.reason);
     return out;
   }
+  tell(out);
+  notify(Cycle::Kind::Probe, &probe, out, before);
+  return out;
+}
+
+void Driver::tell(const ControllerOutput& out) {
   for (const ControllerEvent& e : out.events) {
     if (e.type == ControllerEvent::Type::ModelRejected) last_rejected_fit_ = e.reason;
     // A sensor fault is told once per output at warn (it may last for every probe of the run).
@@ -102,8 +111,6 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
                              to_string(e.type), e.reason,
                              first_fault ? " (later readings of " + e.output + " set aside: log level debug)" : "");
   }
-  notify(Cycle::Kind::Probe, &probe, out, before);
-  return out;
 }
 
 void Driver::sample_done() {

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "alc/indicators.hpp"
+#include "common/number_text.hpp"
 #include "probing/schedule.hpp"
 
 namespace alc::runtime {
@@ -114,9 +115,13 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
   rep.rejected_fits = cs.rejected_fits;
   rep.cp_end_s = cs.cp_end_s;
   const std::size_t last = std::min(rows, scenario_.samples());
+  // Every row replayed was either accepted (counted in the controller's state, so across a resume) or
+  // set aside.
+  rep.rejected_samples = std::max<std::int64_t>(0, static_cast<std::int64_t>(last) - cs.samples);
   rep.duration_s = last > 0 ? scenario_.time_s[last - 1] - scenario_.time_s.front() : 0.0;
-  rep.Pd = rep.duration_s > 0 ? probing::productivity_percent(rep.M, rep.duration_s)
-                              : std::numeric_limits<double>::quiet_NaN();
+  // No Pd of a run that took no sample (every one set aside): it did not run the machine's time.
+  rep.Pd = rep.duration_s > 0 && cs.samples > 0 ? probing::productivity_percent(rep.M, rep.duration_s)
+                                                : std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = scenario_.output_names.size();
   // The indicators of each output over the evaluated rows where it was measured plausibly (a reading
   // the controller set aside as a sensor fault is no error to judge it by), for predictions
@@ -137,6 +142,15 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
     return outs;
   };
   rep.outputs = indicators([&](std::size_t i, std::size_t k) { return predicted_rows_[i * n + k]; });
+  for (std::size_t i = 0; i < time_s_.size(); ++i)
+    for (std::size_t k = 0; k < n; ++k) {
+      const double m = measured_[i * n + k];
+      if (std::isnan(m) || std::abs(m) <= controller.parameters().plausible_limit(error_kind(scenario_.output_names[k])))
+        continue;
+      if (rep.implausible_measurements++ == 0)
+        rep.first_implausible =
+            scenario_.output_names[k] + " at time_s " + common::shortest_text(time_s_[i]) + ": " + common::shortest_text(m);
+    }
   rep.baseline = indicators([&](std::size_t i, std::size_t k) { return baseline_rows_[i * n + k]; });
   for (std::size_t j = 0; j < baseline_kinds_.size(); ++j) {
     // Before the end of CP a model is not fitted yet and predicts 0, as the static baseline does.

@@ -1,6 +1,10 @@
 #include "runtime/replay.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
 
 #include "common/number_text.hpp"
 #include "runtime/history_recorder.hpp"
@@ -68,6 +72,43 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
 }
 
 Replay::~Replay() = default;
+
+std::string sparse_measurements(const scenarios::Scenario& scenario, const AlcParameters& parameters,
+                                const std::string& what) {
+  if (scenario.time_s.empty()) return {};
+  // The median spacing of the measured rows in [from_s, until_s] (NaN with fewer than 3).
+  const auto median_spacing = [&](double from_s, double until_s) {
+    std::vector<double> gaps;
+    double last = std::numeric_limits<double>::quiet_NaN();
+    for (std::size_t r = 0; r < scenario.samples() && scenario.time_s[r] <= until_s; ++r) {
+      if (scenario.time_s[r] < from_s || !scenario.outputs.row(static_cast<Eigen::Index>(r)).array().isFinite().any())
+        continue;
+      if (!std::isnan(last)) gaps.push_back(scenario.time_s[r] - last);
+      last = scenario.time_s[r];
+    }
+    if (gaps.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+    std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
+    return gaps[gaps.size() / 2];
+  };
+  const auto minutes = [](double s) { return common::shortest_text(std::round(s / 6.0) / 10.0) + " min"; };
+  std::vector<std::string> parts;
+  const double cp_end_s = scenario.time_s.front() + parameters.cp_duration_s;
+  const double in_cp = median_spacing(-std::numeric_limits<double>::infinity(), cp_end_s);
+  // 1.5 x: a recording measured on a slightly coarser grid than the interval (7 min against 5) is
+  // the case the schedule's "next measurement" rule is for, and still probes about as often.
+  if (in_cp > 1.5 * parameters.cp_interval_s)
+    parts.push_back("in CP every " + minutes(in_cp) + " (median) where the CP interval is " +
+                    minutes(parameters.cp_interval_s) + ", so CP gets fewer probes than its schedule");
+  const double after_cp = median_spacing(cp_end_s, std::numeric_limits<double>::infinity());
+  if (std::isfinite(parameters.ng_interval_s) && after_cp > 1.5 * parameters.ng_interval_s)
+    parts.push_back("after CP every " + minutes(after_cp) + " (median) where the NG interval is " +
+                    minutes(parameters.ng_interval_s) + ", so an NG burst is stretched");
+  if (parts.empty()) return {};
+  std::string text = what + " is measured more sparsely than the schedule asks (a probe takes the next recorded "
+                            "measurement): ";
+  for (std::size_t i = 0; i < parts.size(); ++i) text += (i ? "; " : "") + parts[i];
+  return text;
+}
 
 std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParameters& parameters,
                              const std::string& what, const ScenarioOptionTexts& texts) {

@@ -52,6 +52,7 @@ nlohmann::json report_json(const ReplayReport& r) {
           {"ng_phases", r.ng_phases},
           {"updates", r.updates},
           {"rejected_fits", r.rejected_fits},
+          {"rejected_samples", r.rejected_samples},
           {"cp_end_h", std::isfinite(r.cp_end_s) ? nlohmann::json(r.cp_end_s / 3600.0) : nlohmann::json(nullptr)},
           {"duration_h", r.duration_s / 3600.0},
           {"baseline", {{"outputs", outputs_json(r.baseline)}}}};
@@ -94,6 +95,8 @@ ReplayReport report_from_json(const nlohmann::json& j, const std::vector<std::st
   r.ng_phases = j.at("ng_phases").get<int>();
   r.updates = j.at("updates").get<int>();
   r.rejected_fits = j.at("rejected_fits").get<int>();
+  // Stored before the count was kept: none known.
+  r.rejected_samples = j.contains("rejected_samples") ? j.at("rejected_samples").get<std::int64_t>() : 0;
   r.cp_end_s = j.at("cp_end_h").is_null() ? kInf : j.at("cp_end_h").get<double>() * 3600.0;
   r.duration_s = j.at("duration_h").get<double>() * 3600.0;
   return r;

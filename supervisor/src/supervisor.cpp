@@ -7,6 +7,7 @@
 #include "common/number_text.hpp"
 #include "common/utf8.hpp"
 #include "nc_interface/commands.hpp"
+#include "probing/schedule.hpp"
 #include "runtime/history_recorder.hpp"
 #include "runtime/nc_emitter.hpp"
 #include "runtime/run.hpp"
@@ -469,7 +470,7 @@ void Supervisor::feed(const SampleMessage& m) {
   // the backlog: the request's timeout counts from the latest sample, so asking at the first held
   // sample would hold the rest again and release one sample per timeout. (Held samples after a result
   // ask at the sample that reaches the due time, as a replay does.)
-  if (!outstanding_ && !(after_timeout_ && !held_.empty()) && m.time_s >= controller_.state().next_probe_due_s)
+  if (!outstanding_ && !(after_timeout_ && !held_.empty()) && probing::reached(m.time_s, controller_.state().next_probe_due_s))
     request_probe(m.time_s);
   if (!outstanding_ && held_.empty()) {
     // A consistent point: every inbox entry up to this one is processed.

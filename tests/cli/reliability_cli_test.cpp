@@ -172,6 +172,19 @@ TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set asi
   // The event names the output, the value and the limit; once per output at warn.
   CHECK_THAT(bad.err, Catch::Matchers::Contains("E_X0C = -1e+308 µm is beyond the plausible ±1000 µm"));
   CHECK(bad.err.find("E_X0C = -1e+308", bad.err.find("E_X0C = -1e+308") + 1) == std::string::npos);
+  // The readings after CP that the indicators leave out are counted at the end (before: without a word).
+  const auto after_cp = [&] {
+    int n = 0;
+    for (Eigen::Index r = 0; r < s.outputs.rows(); ++r)
+      n += !std::isnan(s.outputs(r, x)) && s.time_s[static_cast<std::size_t>(r)] >= g.at("cp_end_h").get<double>() * 3600.0;
+    return n;
+  }();
+  REQUIRE(after_cp > 100);
+  CHECK_THAT(bad.err, Catch::Matchers::Contains(std::to_string(after_cp) +
+                                                " recorded measurement(s) after CP beyond the plausible limit "
+                                                "(--plausible-lin, --plausible-ang) were left out of the indicators; "
+                                                "the first: E_X0C at time_s "));
+  CHECK_THAT(good.err, !Catch::Matchers::Contains("left out of the indicators"));
 
   // A limit below the readings sets them aside too; a loose limit value is a usage error.
   const CliRun tight = run("replay \"" + clean.string() + "\" --json --plausible-ang 20");
@@ -195,7 +208,10 @@ TEST_CASE("an absurd temperature reading (a sensor fault) sets the sample aside 
   const CliRun r = run("replay \"" + faulty.string() + "\" --json");
   REQUIRE(r.exit_code == 0);
   CHECK_THAT(r.err, Catch::Matchers::Contains("input 'T_ENV' = -1e+308 °C is beyond the plausible ±200 °C"));
+  CHECK_THAT(r.err, Catch::Matchers::Contains("faulty.csv: 1 of " + std::to_string(s.samples()) +
+                                              " samples were set aside; the first: sample 5000: "));
   const auto j = nlohmann::json::parse(r.out);
+  CHECK(j.at("rejected_samples") == 1);
   CHECK(j.at("updates").get<int>() > 0);
   for (const std::string& name : s.output_names) CHECK(j.at("outputs").at(name).at("P99").is_number());
 }

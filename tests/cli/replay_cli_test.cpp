@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "../cli_support.hpp"
+#include <cmath>
 #include <filesystem>
 #include <cstdio>
 #include <fstream>
@@ -247,6 +248,61 @@ TEST_CASE("alc replay: usage errors name the option and value") {
     CHECK_THAT(inside.err, Catch::Matchers::Contains("is in the --nc-out directory"));
     CHECK_FALSE(fs::exists(nc));
   }
+  // An --nc-out that cannot be a directory fails before any run begins (before: after the whole replay,
+  // with its commands recorded in --db as not delivered).
+  const fs::path blocker = work_dir() / "nc_is_a_file";
+  const fs::path db = work_dir() / "nc_is_a_file.sqlite";
+  fs::remove(db);
+  { std::ofstream(blocker) << "x"; }
+  const Run blocked = alc("replay --case A --db \"" + db.string() + "\" --nc-out \"" + blocker.string() + "\"");
+  CHECK(blocked.exit_code == 1);
+  CHECK_THAT(blocked.err, Catch::Matchers::Contains("--nc-out: cannot create " + blocker.string() + ": "));
+  CHECK_FALSE(fs::exists(db));
+  CHECK(slurp(blocker) == "x");
+}
+
+TEST_CASE("alc replay: samples set aside are counted at the end and the first 10 told at warn - a run that took none has no Pd") {
+  // A day at 1 min, a temperature and an error measured every 5 min. Before: one warning per sample (a
+  // dead sensor over a week, 10^4 lines), a closing "CP never ended: 0 fits were rejected" that blamed
+  // the fits, and Pd = 100 % for a run that took no sample.
+  const auto write = [](const fs::path& file, double offset_all, int bad_from, int bad_to) {
+    std::ofstream f(file);
+    f << "time_s,T_ENV,E_X0C\n";
+    for (int k = 0; k < 24 * 60; ++k) {
+      const double t = 20.0 + 3.0 * std::sin(k / 200.0) + offset_all + (k >= bad_from && k < bad_to ? 900.0 : 0.0);
+      f << k * 60 << "," << t << "," << (k % 5 == 0 ? std::to_string(2.0 * std::sin(k / 200.0)) : "") << "\n";
+    }
+  };
+  const auto count = [](const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  const fs::path kelvin = work_dir() / "kelvin.csv";  // every temperature + 273.15: beyond +-200 degC
+  write(kelvin, 273.15, 0, 0);
+  const Run all = alc("replay \"" + kelvin.string() + "\" --cp 2 --json");
+  CHECK(all.exit_code == 0);
+  CHECK(count(all.err, " rejected: ") == 10);
+  CHECK_THAT(all.err, Catch::Matchers::Contains("(later rejected samples at log level debug)") &&
+                          Catch::Matchers::Contains("kelvin.csv: CP never ended: every sample (1440) was set aside, so no "
+                                                    "model was made and nothing was compensated or evaluated; the first: "
+                                                    "sample 0: ") &&
+                          Catch::Matchers::Contains("T_ENV"));
+  CHECK_THAT(all.err, !Catch::Matchers::Contains("fits were rejected"));
+  const nlohmann::json j = indicators_of(all.out);
+  CHECK(j.at("Pd").is_null());
+  CHECK(j.at("M") == 0);
+  CHECK(j.at("rejected_samples") == 1440);
+  const Run table = alc("replay \"" + kelvin.string() + "\" --cp 2");
+  CHECK_THAT(table.out, Catch::Matchers::Contains("Pd = - %") && Catch::Matchers::Contains("samples set aside 1440"));
+
+  const fs::path part = work_dir() / "part.csv";  // 30 samples of a broken thermocouple at ~920 degC
+  write(part, 0.0, 600, 630);
+  const Run some = alc("replay \"" + part.string() + "\" --cp 2");
+  CHECK(some.exit_code == 0);
+  CHECK(count(some.err, " rejected: ") == 10);
+  CHECK_THAT(some.err, Catch::Matchers::Contains("part.csv: 30 of 1440 samples were set aside; the first: sample 600: "));
+  CHECK_THAT(some.out, Catch::Matchers::Contains(", samples set aside 30\n") && !Catch::Matchers::Contains("Pd = - %"));
 }
 
 TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {

@@ -81,15 +81,16 @@ TEST_CASE("alc replay --db --nc-out records each accepted NC command as delivere
 }
 
 TEST_CASE("alc replay --db --nc-out that cannot write its files records the commands as not delivered and exits 1") {
-  // DIR lies under a regular file: no process, root included, can create it.
-  const fs::path db = work_dir() / "undelivered.sqlite", plain = work_dir() / "plain_file";
+  // DIR/commands.jsonl is a directory: no process, root included, can write the file. (An --nc-out that
+  // cannot be a directory at all is refused before the run begins: replay_cli_test.)
+  const fs::path db = work_dir() / "undelivered.sqlite", out = work_dir() / "undelivered_nc";
   fs::remove(db);
-  std::ofstream(plain) << "not a directory\n";
-  const fs::path out = plain / "nc";
+  fs::remove_all(out);
+  fs::create_directories(out / "commands.jsonl");
   const Run r = run_alc("replay --case A --db \"" + db.string() + "\" --nc-out \"" + out.string() + "\"" + tight_machine());
   INFO(r.err);
   CHECK(r.exit_code == 1);
-  CHECK_FALSE(fs::exists(out));
+  CHECK_FALSE(fs::exists(out / "program.ngc"));
   const auto error_at = r.err.find("alc: error: ");
   REQUIRE(error_at != std::string::npos);
   std::string error = r.err.substr(error_at + std::string("alc: error: ").size());

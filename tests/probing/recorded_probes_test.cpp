@@ -21,6 +21,10 @@ TEST_CASE("recorded probes: first measurement at or after the due time") {
   CHECK(probes.first_at_or_after(120.0) == std::optional<std::size_t>(2));
   CHECK(probes.first_at_or_after(121.0) == std::optional<std::size_t>(5));
   CHECK_FALSE(probes.first_at_or_after(301.0).has_value());
+  // Within 1 ms before a measurement counts as at it (a due time summed in doubles); more does not.
+  CHECK(probes.first_at_or_after(120.0 + 1e-9) == std::optional<std::size_t>(2));
+  CHECK(probes.first_at_or_after(120.0009) == std::optional<std::size_t>(2));
+  CHECK(probes.first_at_or_after(120.002) == std::optional<std::size_t>(5));
   CHECK(probes.is_measured(2));
   CHECK_FALSE(probes.is_measured(3));
   CHECK_FALSE(probes.is_measured(99));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include <filesystem>
 #include <unistd.h>
@@ -83,6 +84,56 @@ TEST_CASE("replay: a probe takes the first recorded measurement at or after its 
   CHECK(probes.times[2] == 14 * kMinute);  // due at 12 min
   CHECK(probes.times[3] == 21 * kMinute);  // due at 19 min
   for (double t : probes.times) CHECK(std::fmod(t, 7 * kMinute) == 0.0);
+}
+
+TEST_CASE("replay: time stamps with fractions of a second probe at the same rows as whole seconds") {
+  // A due time is a sum of doubles: 124200.123 + 7200 is 131400.12300000002, 1 ulp after the recorded
+  // 131400.123, and that probe used to wait for the next measured row (5 min later), which moved the
+  // schedule for the rest of the run (M and the NG phases differed from the same recording shifted by
+  // 0.5 s). Every probe row of the shifted recordings is that of the unshifted one.
+  Scenario s = synthetic(5);
+  ProbeTimes reference;
+  Replay clean(s, in_memory(parameters(), &reference));
+  clean.run();
+  REQUIRE(reference.times.size() > 20);
+  // The times as a CSV gives them: the double nearest to the decimal text ("131400.123").
+  for (const std::string fraction : {".123", ".5"}) {
+    const double shift = 100000.0 + std::stod("0" + fraction);
+    Scenario shifted = s;
+    for (double& t : shifted.time_s) t = std::stod(std::to_string(static_cast<long long>(t) + 100000) + fraction);
+    ProbeTimes probes;
+    Replay session(shifted, in_memory(parameters(), &probes));
+    session.run();
+    CAPTURE(shift);
+    REQUIRE(probes.times.size() == reference.times.size());
+    for (std::size_t i = 0; i < probes.times.size(); ++i) {
+      CAPTURE(i, reference.times[i]);
+      CHECK(std::abs(probes.times[i] - shift - reference.times[i]) < 1e-3);
+    }
+  }
+}
+
+TEST_CASE("replay: a recording measured more sparsely than the CP or NG interval is told, a slightly coarser one is not") {
+  AlcParameters p = parameters();  // CP interval 5 min, NG interval 10 min
+  p.cp_duration_s = 6 * kHour;
+  CHECK(sparse_measurements(synthetic(5), p, "a.csv").empty());
+  CHECK(sparse_measurements(synthetic(7), p, "a.csv").empty());  // the next measurement is 2 min late
+  const std::string sparse = sparse_measurements(synthetic(120), p, "a.csv");
+  CHECK_THAT(sparse, Catch::Contains("a.csv is measured more sparsely than the schedule asks (a probe takes the next "
+                                     "recorded measurement): in CP every 120 min (median) where the CP interval is 5 min, "
+                                     "so CP gets fewer probes than its schedule; after CP every 120 min (median) where "
+                                     "the NG interval is 10 min, so an NG burst is stretched"));
+  // Measured every 5 min in CP and every 30 min after: CP is as asked, an NG burst is not.
+  Scenario mixed = synthetic(5);
+  for (Eigen::Index r = 0; r < mixed.outputs.rows(); ++r)
+    if (mixed.time_s[static_cast<std::size_t>(r)] > 6 * kHour && static_cast<int>(mixed.time_s[static_cast<std::size_t>(r)]) % 1800 != 0)
+      mixed.outputs(r, 0) = std::numeric_limits<double>::quiet_NaN();
+  const std::string after_cp = sparse_measurements(mixed, p, "b.csv");
+  CHECK_THAT(after_cp, Catch::Contains("): after CP every 30 min (median) where the NG interval is 10 min, so an NG "
+                                       "burst is stretched"));
+  CHECK_THAT(after_cp, !Catch::Contains("in CP"));
+  p.ng_interval_s = std::numeric_limits<double>::infinity();  // no NG burst: nothing to stretch
+  CHECK(sparse_measurements(mixed, p, "b.csv").empty());
 }
 
 TEST_CASE("replay: a probe due on a sample the controller sets aside is taken at the next measurement") {

@@ -37,6 +37,27 @@ std::string quoted(const std::filesystem::path& path) { return std::string(1, '\
 
 }  // namespace
 
+TEST_CASE("alc db info gives the times of a run on a machine clock in full", "[storage][cli]") {
+  // Unix times of a supervisor or a logger's recording: six significant digits ("1.76723e+09") told
+  // the span and the snapshot to within about 3 h.
+  ScratchDir dir;
+  const auto file = dir / "history.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    for (std::int64_t k = 0; k < 3; ++k) {
+      auto sample = test::sample_at(id, k);
+      sample.time_s += 1767225600.25;
+      writer.add(sample);
+    }
+    writer.save_snapshot({id, 1767225720.25, 3, "test/1", true, "{}"});
+  }
+  const Outcome info = run_alc("db info " + quoted(file));
+  CHECK(info.exit_code == 0);
+  CHECK_THAT(info.output, Catch::Contains("time_s 1767225600.25 .. 1767225720.25 (0.03333 h)") &&
+                              Catch::Contains("latest snapshot at time_s 1767225720.25\n"));
+}
+
 TEST_CASE("alc db info, check and export on a sound history", "[storage][cli]") {
   ScratchDir dir;
   const auto file = dir / "history.sqlite";

@@ -29,6 +29,14 @@ namespace alc::probing {
 
 inline constexpr double kNever = std::numeric_limits<double>::infinity();
 
+// [s] A measurement this little before a due time counts as at it. Due times are sums of time
+// stamps and intervals in doubles, and 124200.123 + 7200 is 131400.12300000002, 1 ulp after the
+// recorded 131400.123: without the tolerance that probe would wait for the next row, and a
+// recording with fractional seconds would probe later than the same one shifted by whole seconds.
+inline constexpr double kDueTolerance_s = 1e-3;
+// Whether a sample or measurement at `time_s` is at or after `due_s` (within kDueTolerance_s).
+inline bool reached(double time_s, double due_s) { return time_s >= due_s - kDueTolerance_s; }
+
 // What a policy sees when it decides (all times in seconds, scenario or machine clock).
 struct ScheduleContext {
   double now_s = 0.0;              // [s] time of the decision: a probe, or the start of a phase

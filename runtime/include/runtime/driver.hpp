@@ -114,11 +114,18 @@ class Driver {
   // The reason of the latest fit the controller rejected in this driver's cycles ("" if none): what a
   // run whose CP never ended tells its user.
   const std::string& last_rejected_fit() const { return last_rejected_fit_; }
+  // The first sample this driver's controller set aside, with the reason ("" if none): the first
+  // kSamplesToldAtWarn are logged at warn, later ones at debug.
+  const std::string& first_rejected_sample() const { return first_rejected_sample_; }
+  static constexpr std::int64_t kSamplesToldAtWarn = 10;
   // A driver of a forked controller continues after the sample its parent took last.
   void continue_after(const Sample& sample) { last_ = sample; }
 
  private:
   void notify(Cycle::Kind kind, const ProbeMeasurement* probe, const ControllerOutput& out, Phase before);
+  // The log lines of a sample's or a probe's events: phase changes, rejected models and the guard at
+  // info, a sensor's first implausible reading at warn, the rest at debug.
+  void tell(const ControllerOutput& out);
   Controller& controller_;
   std::vector<Observer*> observers_;
   std::optional<CompensationSetup> setup_;
@@ -127,6 +134,8 @@ class Driver {
   double identification_s_ = 0.0;
   std::vector<std::string> implausible_logged_;  // outputs whose implausible reading was logged at warn
   std::string last_rejected_fit_;
+  std::int64_t rejected_samples_ = 0;
+  std::string first_rejected_sample_;
 };
 
 }  // namespace alc::runtime

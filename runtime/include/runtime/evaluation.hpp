@@ -50,6 +50,11 @@ struct ReplayReport {
   int ng_phases = 0;
   int updates = 0;                          // successful identifications, incl. the first
   int rejected_fits = 0;
+  std::int64_t rejected_samples = 0;       // samples the controller set aside (an input beyond its limit, …)
+  // Recorded measurements after CP beyond the plausible limit, left out of the indicators (a sensor
+  // fault is no error to judge by), and the first of them ("E_X0C at time_s 108000: 5000").
+  std::int64_t implausible_measurements = 0;
+  std::string first_implausible;
   double cp_end_s = kInf;                   // [s] end of the calibration phase
   double duration_s = 0.0;                  // [s] T_total
   double identification_s = 0.0;            // [s] wall time spent in cycles that identified

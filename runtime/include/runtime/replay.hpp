@@ -61,6 +61,15 @@ struct ScenarioOptionTexts {
 std::string scenario_problem(const scenarios::Scenario& scenario, const AlcParameters& parameters,
                              const std::string& what, const ScenarioOptionTexts& texts);
 
+// A warning (empty if none) when the recording measures more sparsely than the CP or NG probe
+// interval asks: a probe takes the next recorded measurement, so CP gets fewer probes than its
+// schedule and an NG burst is stretched (a recording measured every 2 h with the default 5-min CP
+// interval ran a CP of 10 h and two rejected fits without a word). Judged by the median spacing of
+// the measured rows in the first `cp_duration_s` (against the CP interval) and after it (against the
+// NG interval, unless there is no NG burst).
+std::string sparse_measurements(const scenarios::Scenario& scenario, const AlcParameters& parameters,
+                                const std::string& what);
+
 // The identity a replay with `options` stores (runs.config_json) and a resume must match: the
 // canonical parameters under the schedule's name, and options.identity.
 std::string replay_identity(const ReplayOptions& options);
