@@ -418,9 +418,10 @@ class RunSection {
       h += "<p class=\"nc-undelivered\" data-passed=\"" + std::to_string(passed) + "\" data-delivered=\"" +
            std::to_string(delivered) + "\" data-not-delivered=\"" + std::to_string(failed) + "\" data-not-settled=\"" +
            std::to_string(unsettled) + "\"><strong>" +
-           (delivered == 0 ? "None of the " + std::to_string(passed) + " offset commands the safety gate passed reached"
+           (delivered == 0 ? "None of the " + std::to_string(passed) +
+                                 " offset commands the safety gate passed is recorded as delivered to"
                            : std::to_string(failed + unsettled) + " of the " + std::to_string(passed) +
-                                 " offset commands the safety gate passed did not reach") +
+                                 " offset commands the safety gate passed are not recorded as delivered to") +
            " the NC</strong>: ";
       if (failed)
         h += std::to_string(failed) + " not delivered (delivered 0: the sink failed" +

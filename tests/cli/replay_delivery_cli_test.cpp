@@ -113,7 +113,7 @@ TEST_CASE("alc replay --db --nc-out that cannot write its files records the comm
   CHECK(run_alc("db check \"" + db.string() + "\"").exit_code == 0);
 }
 
-TEST_CASE("a history whose --nc-out was a plain file: the report says no passed command reached the NC, db check names it") {
+TEST_CASE("a history whose --nc-out was a plain file: the report says no passed command was delivered, db check names it") {
   // The review's case: `touch afile; alc replay ... --nc-out afile` exits 1 and every accepted row reads
   // delivered 0; the report said "passed to the NC (813)" and nothing else.
   const fs::path db = work_dir() / "afile.sqlite", afile = work_dir() / "afile", page = work_dir() / "afile.html";
@@ -134,7 +134,7 @@ TEST_CASE("a history whose --nc-out was a plain file: the report says no passed 
   REQUIRE(report.exit_code == 0);
   const std::string html = alc_test::slurp(page);
   CHECK_THAT(html, Catch::Matchers::Contains("<strong>None of the " + std::to_string(passed) +
-                                             " offset commands the safety gate passed reached the NC</strong>: " +
+                                             " offset commands the safety gate passed is recorded as delivered to the NC</strong>: " +
                                              std::to_string(passed) + " not delivered (delivered 0: the sink failed: "));
   CHECK_THAT(html, Catch::Matchers::Contains("Not a directory"));
   const Run check = run_alc("db check \"" + db.string() + "\"");

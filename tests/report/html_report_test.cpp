@@ -85,7 +85,7 @@ TEST_CASE("report page: commands the gate passed but not delivered or not settle
   // Counted (also as data for a reader of the page) and said in words, with the sink's error.
   CHECK(html.find("<p class=\"nc-undelivered\" data-passed=\"" + std::to_string(passed) + "\" data-delivered=\"" +
                   delivered + "\" data-not-delivered=\"3\" data-not-settled=\"2\"><strong>5 of the " +
-                  std::to_string(passed) + " offset commands the safety gate passed did not reach the NC</strong>: 3 not "
+                  std::to_string(passed) + " offset commands the safety gate passed are not recorded as delivered to the NC</strong>: 3 not "
                   "delivered (delivered 0: the sink failed: cannot create nc: Not a directory); 2 not settled") !=
         std::string::npos);
   CHECK(html.find("that were delivered to the NC (" + delivered + "); orange: passed but not delivered, the sink "
@@ -106,7 +106,7 @@ TEST_CASE("report page: commands the gate passed but not delivered or not settle
   test::mark_undelivered(h.db, static_cast<int>(passed), 0);
   const std::string none = html_report(h.db, {});
   CHECK(none.find("<strong>None of the " + std::to_string(passed) +
-                  " offset commands the safety gate passed reached the NC</strong>: " + std::to_string(passed) +
+                  " offset commands the safety gate passed is recorded as delivered to the NC</strong>: " + std::to_string(passed) +
                   " not delivered") != std::string::npos);
   CHECK(test::count(none, "class=\"marker marker-sent") == 0);
   CHECK(test::count(none, "<i class=\"marker-key marker-key-sent\"") == 0);
