@@ -257,7 +257,7 @@ std::vector<ResumePlan> plan_resume(const std::string& db, const std::vector<std
   for (std::size_t k = 0; k < sources.size(); ++k) {
     const auto& [source, identity] = sources[k];
     // The run RunLifecycle would resume, else the latest finished one.
-    const std::optional<storage::RunRecord> open = runtime::latest_unfinished_run(runs, source);
+    const std::optional<storage::RunRecord> open = runtime::run_to_resume(runs, source, identity);
     const storage::RunRecord* latest = nullptr;
     for (const auto& r : runs)
       if (r.source == source && r.status == storage::RunStatus::Finished) latest = &r;
@@ -433,6 +433,25 @@ void run_replay(const ReplayArgs& a) {
     } catch (const runtime::ResumeRefused& e) {
       throw UsageError(e.what());
     }
+    if (const auto& ended = replay->nc_output_ended()) {
+      // --nc-out cannot be given with --resume: the rest of this run reaches no NC, and says so.
+      std::string sinks;
+      for (const std::string& s : ended->sinks) sinks += (sinks.empty() ? "" : ", ") + s;
+      const std::string from = ended->from_s == storage::kSnapshotBeforeStart_s
+                                   ? "its first sample"
+                                   : common::shortest_text(std::round((ended->from_s - t0) / 36.0) / 100.0) +
+                                         " h of scenario time (its snapshot)";
+      std::string before;
+      if (ended->not_settled)
+        before += "; " + std::to_string(ended->not_settled) +
+                  " accepted command(s) before it were never delivered (not settled: the run stopped before its NC "
+                  "files were written)";
+      if (ended->not_delivered)
+        before += "; " + std::to_string(ended->not_delivered) + " accepted command(s) before it were not delivered (the sink failed)";
+      log::get("replay")->warn("{}: run {} had NC output ({}); this resume has none (--nc-out cannot be combined with "
+                               "--resume): from {} on, no NC command of the run is written or recorded{}",
+                               source, *replay->run_id(), sinks, from, before);
+    }
     replay->run();
     if (replay->nc() && replay->nc_summary())
       print_nc_summary(source, nc_dir_of(a, name, cases.size() > 1), dialect, *replay->nc(), *replay->nc_summary());
@@ -585,8 +604,9 @@ void add_replay_command(CLI::App& app) {
                     "indicators of the part replayed (needs --db)",
                     0.0, kMaxHours);
   cmd->add_flag("--resume", args->resume,
-                "Continue the latest unfinished run of this scenario in --db from its saved state; with several "
-                "cases, a finished one is shown from its stored indicators and one never begun begins");
+                "Continue the latest unfinished run of this scenario in --db from its saved state (found by content "
+                "and parameters: another path to the same data is the same run); with several cases, a finished "
+                "one is shown from its stored indicators and one never begun begins");
   add_number_option(cmd, "--kill-at", args->kill_at_h,
                     "Fault injection (for tests of crash safety): the process SIGKILLs itself at H hours of scenario "
                     "time, leaving the history as a crash would",

@@ -376,28 +376,73 @@ class RunSection {
     const auto& names = d_.run.offset_names;
     std::string& h = page_.html;
     h += "<h3>Axis offsets</h3>\n";
-    std::size_t sent = 0, refused = 0;
+    // The gate's verdict and, for a command it passed, whether the sink took it (delivered 1), failed
+    // (0) or was never settled (NULL: killed before the delivery, resumed without NC output, or a sink
+    // that records none): only the first reached the NC.
+    std::size_t delivered = 0, failed = 0, unsettled = 0, refused = 0;
+    std::string failure;  // the first sink error
     std::vector<Marker> marks;
     for (const auto& c : d_.nc_commands) {
       if (c.kind != "offsets") continue;
-      (c.accepted ? sent : refused)++;
-      marks.push_back({hours(c.time_s), c.accepted ? "sent" : "refused",
-                       (c.accepted ? "sent at " : "refused at ") + fmt(hours(c.time_s)) + " h" +
-                           (c.message.empty() ? "" : ": " + c.message)});
+      const std::string at = fmt(hours(c.time_s)) + " h";
+      if (!c.accepted) {
+        ++refused;
+        marks.push_back({hours(c.time_s), "refused", "refused at " + at + (c.message.empty() ? "" : ": " + c.message)});
+      } else if (c.delivered == true) {
+        ++delivered;
+        marks.push_back({hours(c.time_s), "sent", "passed at " + at + ", delivered" +
+                                                      (c.message.empty() ? "" : " (" + c.message + ")")});
+      } else if (c.delivered == false) {
+        ++failed;
+        if (failure.empty()) failure = c.delivery_message;
+        marks.push_back({hours(c.time_s), "undelivered",
+                         "passed at " + at + ", NOT delivered" +
+                             (c.delivery_message.empty() ? "" : ": " + c.delivery_message)});
+      } else {
+        ++unsettled;
+        marks.push_back({hours(c.time_s), "unsettled", "passed at " + at + ", not settled (no delivery recorded)"});
+      }
     }
     if (names.empty()) {
       h += "<p>This run has no offset channels (no output is a C-axis location error).</p>\n";
       return;
     }
-    h += "<p>Lines: the offsets that cancel each prediction (targets). Ticks at the bottom: offset commands the "
-         "safety gate passed to the NC (" + std::to_string(sent) + "); red lines: refused commands (" +
-         std::to_string(refused) + ")" +
+    const std::size_t passed = delivered + failed + unsettled;
+    h += "<p>Lines: the offsets that cancel each prediction (targets). Green ticks at the bottom: offset commands "
+         "the safety gate passed that were delivered to the NC (" + std::to_string(delivered) + ")";
+    if (failed) h += "; orange: passed but not delivered, the sink failed (" + std::to_string(failed) + ")";
+    if (unsettled) h += "; purple: passed but not settled, no delivery recorded (" + std::to_string(unsettled) + ")";
+    h += "; red lines: refused commands (" + std::to_string(refused) + ")" +
          (d_.nc_commands.empty() ? "; this run recorded no NC commands (alc replay without --nc-out)" : "") + ".</p>\n";
+    if (failed || unsettled) {
+      h += "<p class=\"nc-undelivered\" data-passed=\"" + std::to_string(passed) + "\" data-delivered=\"" +
+           std::to_string(delivered) + "\" data-not-delivered=\"" + std::to_string(failed) + "\" data-not-settled=\"" +
+           std::to_string(unsettled) + "\"><strong>" +
+           (delivered == 0 ? "None of the " + std::to_string(passed) +
+                                 " offset commands the safety gate passed is recorded as delivered to"
+                           : std::to_string(failed + unsettled) + " of the " + std::to_string(passed) +
+                                 " offset commands the safety gate passed are not recorded as delivered to") +
+           " the NC</strong>: ";
+      if (failed)
+        h += std::to_string(failed) + " not delivered (delivered 0: the sink failed" +
+             (failure.empty() ? std::string() : ": " + escape_xml(failure)) + ")";
+      if (failed && unsettled) h += "; ";
+      if (unsettled)
+        h += std::to_string(unsettled) +
+             " not settled (delivered NULL: no delivery recorded; the process stopped between the command and its "
+             "delivery, e.g. killed, and a resume writes no NC output; or its sink records no delivery)";
+      h += ". The offset lines are targets, not what the NC holds.</p>\n";
+    }
     charts_by_unit(names, offset_unit, d_.predictions,
                    [](const storage::PredictionRecord& r) -> const std::vector<double>& { return r.offsets; },
                    [&](std::size_t n, const std::string& unit) {
                      Chart c = base("offsets-" + std::to_string(n), "Axis offsets [" + unit + "]", "offset [" + unit + "]");
                      c.markers = marks;
+                     if (delivered) c.marker_keys.push_back({"sent", "passed, delivered (" + std::to_string(delivered) + ")"});
+                     if (failed) c.marker_keys.push_back({"undelivered", "passed, NOT delivered (" + std::to_string(failed) + ")"});
+                     if (unsettled)
+                       c.marker_keys.push_back({"unsettled", "passed, not settled (" + std::to_string(unsettled) + ")"});
+                     if (refused) c.marker_keys.push_back({"refused", "refused (" + std::to_string(refused) + ")"});
                      return c;
                    });
     if (refused) {
@@ -509,6 +554,11 @@ svg.alc-chart .span-CP{fill:#dbe9f7}svg.alc-chart .span-NG{fill:#f9d6d5}svg.alc-
 svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
 svg.alc-chart .marker-ticks{opacity:.9;stroke-dasharray:none}svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
+svg.alc-chart .marker-undelivered{stroke:#ff7f0e;stroke-width:2.5}svg.alc-chart .marker-unsettled{stroke:#9467bd;stroke-width:2.5}
+p.nc-undelivered{background:#fff1e0;border-left:4px solid #ff7f0e;padding:4px 8px}
+.legend i.marker-key{width:3px;height:12px}.legend i.marker-key-sent{background:#2ca02c}.legend i.marker-key-refused{background:#d62728}
+.legend i.marker-key-undelivered{background:#ff7f0e}.legend i.marker-key-unsettled{background:#9467bd}
+.legend i.marker-key-update{background:#2ca02c}.legend i.marker-key-rejected{background:#999}
 svg.alc-chart path.series{fill:none;stroke-width:1.3;stroke-linejoin:round}
 svg.alc-chart path.series-points{stroke-width:4.5;stroke-linecap:round}svg.alc-chart path.dashed{stroke-dasharray:6 4}svg.alc-chart path.dotted{stroke-dasharray:2 3}
 figcaption.legend{font-size:12px;color:#333}.legend .key{margin-right:14px;white-space:nowrap}
@@ -532,7 +582,14 @@ const char* const kScript = R"(<script>
         var d = p.getAttribute('d') || '';
         series.push({name: p.getAttribute('data-name'), points: (d.match(/[MLV]/g) || []).length});
       });
-      charts.push({id: svg.parentNode.id, series: series});
+      var markers = {};
+      svg.querySelectorAll('.marker').forEach(function (m) {
+        var kind = (m.getAttribute('class').match(/marker-([a-z]+)/) || [])[1];
+        if (kind === 'ticks') return;
+        if (!markers[kind]) markers[kind] = {count: 0, stroke: getComputedStyle(m).stroke};
+        markers[kind].count += m.tagName === 'path' ? Number(m.getAttribute('data-markers')) : 1;
+      });
+      charts.push({id: svg.parentNode.id, series: series, markers: markers});
     });
     var figures = [];
     document.querySelectorAll('figure.study-figure').forEach(function (f) {

@@ -249,15 +249,18 @@ std::string render_svg(const Chart& c) {
     std::vector<const Marker*> in_range;
     for (const auto& m : c.markers)
       if (m.kind == kind && m.x >= x0 && m.x <= x1) in_range.push_back(&m);
-    const bool bottom = kind == "sent";  // a command sent: a tick on the time axis
-    const double top = bottom ? pb - 8.0 : pt;
+    // A command the gate passed (delivered or not): a tick on the time axis.
+    const bool bottom = kind == "sent" || kind == "undelivered" || kind == "unsettled";
+    // Not delivered, not settled: twice the height of a delivered one, so they stand out.
+    const double scale = bottom && kind != "sent" ? 2.0 : 1.0;
+    const double top = bottom ? pb - 8.0 * scale : pt;
     if (static_cast<double>(in_range.size()) * kMarkerMinSpacingPx > pr - pl) {
       // Too dense for lines: a tick per pixel column that holds any (at its centre, crisp).
       std::vector<double> columns;
       for (const Marker* m : in_range) columns.push_back(std::floor(X(m->x)) + 0.5);
       std::sort(columns.begin(), columns.end());
       columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
-      const double y0 = bottom ? pb - kMarkerTickPx : pt, y1 = bottom ? pb : pt + kMarkerTickPx;
+      const double y0 = bottom ? pb - kMarkerTickPx * scale : pt, y1 = bottom ? pb : pt + kMarkerTickPx;
       std::string d;
       for (double x : columns) d.append("M").append(num(x)).append(" ").append(num(y0)).append("V").append(num(y1));
       o += "<path class=\"marker marker-" + escape_xml(kind) + " marker-ticks\" data-markers=\"" +
@@ -322,6 +325,9 @@ std::string render_svg(const Chart& c) {
     o += "<span class=\"key key-" + std::string(style_name(s.style)) + "\"><i style=\"background:" +
          key_background(s) + "\"></i>" + escape_xml(s.name) + "</span>";
   for (const auto& b : c.hbands) o += "<span class=\"key\"><i class=\"hband-key\"></i>" + escape_xml(b.label) + "</span>";
+  for (const auto& [kind, text] : c.marker_keys)
+    o += "<span class=\"key key-marker\"><i class=\"marker-key marker-key-" + escape_xml(kind) + "\"></i>" +
+         escape_xml(text) + "</span>";
   o += "</figcaption>\n</figure>\n";
   return o;
 }

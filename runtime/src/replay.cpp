@@ -48,6 +48,17 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
       lifecycle_ = std::make_unique<RunLifecycle>(*writer_, options_.db, record, options_.snapshot_every_s,
                                                   RunLifecycle::Resume{});
       restore(*lifecycle_->resumed_from());
+      if (!options_.nc) {
+        // What the NC got up to the snapshot (the records after it were deleted by the resume).
+        NcOutputEnded ended;
+        ended.from_s = lifecycle_->resumed_from()->time_s;
+        for (const auto& c : storage::HistoryReader(options_.db).nc_commands(lifecycle_->run())) {
+          if (std::find(ended.sinks.begin(), ended.sinks.end(), c.sink) == ended.sinks.end()) ended.sinks.push_back(c.sink);
+          if (c.accepted && !c.delivered) ++ended.not_settled;
+          if (c.accepted && c.delivered == false) ++ended.not_delivered;
+        }
+        if (!ended.sinks.empty()) nc_output_ended_ = std::move(ended);
+      }
     } else {
       lifecycle_ = std::make_unique<RunLifecycle>(*writer_, record, options_.snapshot_every_s);
     }

@@ -4,6 +4,7 @@
 #include <tuple>
 
 #include "common/log.hpp"
+#include "common/number_text.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
 #include "storage/storage_error.hpp"
@@ -80,13 +81,65 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRec
   log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
+namespace {
+
+bool unfinished(const storage::RunRecord& r) {
+  return r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped;
+}
+
+}  // namespace
+
+std::string scenario_hash_of(const std::string& config_json) {
+  const auto j = nlohmann::json::parse(config_json, nullptr, false);
+  return j.is_object() && j.contains("scenario_hash") && j["scenario_hash"].is_string()
+             ? j["scenario_hash"].get<std::string>()
+             : std::string();
+}
+
 std::optional<storage::RunRecord> latest_unfinished_run(const std::vector<storage::RunRecord>& runs,
                                                         const std::string& source) {
   std::optional<storage::RunRecord> found;
   for (const auto& r : runs)
-    if (r.source == source && (r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped))
-      found = r;
+    if (r.source == source && unfinished(r)) found = r;
   return found;
+}
+
+std::optional<storage::RunRecord> run_to_resume(const std::vector<storage::RunRecord>& runs, const std::string& source,
+                                                const std::string& config_json) {
+  // By content: a replay's identity holds its scenario's hash, so a run with the same identity was
+  // recorded from the same data whatever path named it. The same source first, then the latest.
+  const bool by_content = !scenario_hash_of(config_json).empty();
+  std::optional<storage::RunRecord> same_source, same_content;
+  for (const auto& r : runs) {
+    if (!unfinished(r) || r.config_json != config_json) continue;
+    if (r.source == source) same_source = r;
+    else if (by_content) same_content = r;
+  }
+  if (same_source) return same_source;
+  if (same_content) return same_content;
+  // None of this identity: the latest unfinished run of the same source, which the caller refuses
+  // naming what differs (other data, parameters).
+  return latest_unfinished_run(runs, source);
+}
+
+std::string unfinished_runs_text(const storage::HistoryReader& history, const std::vector<storage::RunRecord>& runs) {
+  std::string text;
+  for (const auto& r : runs) {
+    if (!unfinished(r)) continue;
+    text += (text.empty() ? "" : "; ") + std::string("run ") + std::to_string(r.run_id) + " of '" + r.source + "' (" +
+            (r.status == storage::RunStatus::Stopped ? "stopped" : "running: killed or still running");
+    const auto span = history.time_span(r.run_id);
+    if (const auto snap = history.latest_snapshot(r.run_id); !snap)
+      text += ", no snapshot";
+    else if (snap->time_s == storage::kSnapshotBeforeStart_s || span.empty)
+      text += ", its latest snapshot before the first sample";
+    else
+      text += ", its latest snapshot at " + common::shortest_text(std::round((snap->time_s - span.first_s) / 36.0) / 100.0) +
+              " h from its first sample";
+    const std::string hash = scenario_hash_of(r.config_json);
+    text += hash.empty() ? ")" : ", content hash " + hash + ")";
+  }
+  return text.empty() ? "there is no unfinished run in it" : "its unfinished runs: " + text;
 }
 
 // What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
@@ -111,16 +164,25 @@ std::string config_difference(const std::string& stored_text, const std::string&
 RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db,
                            const storage::RunRecord& record, double snapshot_every_s, Resume)
     : writer_(writer), snapshot_every_s_(snapshot_every_s) {
-  const std::optional<storage::RunRecord> found = latest_unfinished_run(storage::HistoryReader(db).runs(), record.source);
-  if (!found) throw ResumeRefused(db.string() + ": no unfinished run of '" + record.source + "' to resume");
+  // The reader is closed before the writer changes the file.
+  const std::optional<storage::RunRecord> found = [&] {
+    const storage::HistoryReader history(db);
+    const std::vector<storage::RunRecord> runs = history.runs();
+    std::optional<storage::RunRecord> run = run_to_resume(runs, record.source, record.config_json);
+    if (!run) {
+      const std::string hash = scenario_hash_of(record.config_json);
+      throw ResumeRefused(db.string() + ": no unfinished run of '" + record.source + "'" +
+                          (hash.empty() ? "" : " (content hash " + hash + ")") + " with this identity to resume; " +
+                          unfinished_runs_text(history, runs));
+    }
+    return run;
+  }();
+  if (found->source != record.source)
+    log::get("runtime")->info("run {} of '{}' is resumed as '{}': the same data (content hash {}) and identity",
+                              found->run_id, found->source, record.source, scenario_hash_of(record.config_json));
   // Another recording under the same name: say so (both content hashes) rather than "other parameters".
-  const auto hash_of = [](const std::string& config) {
-    const auto j = nlohmann::json::parse(config, nullptr, false);
-    return j.is_object() && j.contains("scenario_hash") && j["scenario_hash"].is_string()
-               ? j["scenario_hash"].get<std::string>()
-               : std::string();
-  };
-  if (const std::string stored = hash_of(found->config_json), given = hash_of(record.config_json); stored != given)
+  if (const std::string stored = scenario_hash_of(found->config_json), given = scenario_hash_of(record.config_json);
+      stored != given)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
                         "' was recorded from other data: content hash " + (stored.empty() ? "(none)" : stored) +
                         " stored, " + (given.empty() ? "(none)" : given) + " given (another recording under the same name?)");

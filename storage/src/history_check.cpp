@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "common/number_text.hpp"
 #include "record_io.hpp"
 #include "sqlite_db.hpp"
 #include "storage/history_tools.hpp"
@@ -177,6 +178,29 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   if (version >= 3)
     report_rows(*db, "SELECT run_id, nc_command_id FROM nc_commands WHERE accepted = 0 AND delivered IS NOT NULL",
                 "nc_commands: delivered set on a command the safety gate refused (run, nc_command_id)", report);
+  // Findings, not problems: a finished run whose accepted commands did not all reach their sink.
+  if (version >= 3) {
+    Statement st(*db,
+                 "SELECT n.run_id, n.sink, COUNT(*), SUM(n.delivered = 0), SUM(n.delivered IS NULL), "
+                 "MIN(CASE WHEN n.delivered IS NOT 1 THEN n.time_s END), MAX(CASE WHEN n.delivered IS NOT 1 THEN n.time_s END), "
+                 "(SELECT m.delivery_message FROM nc_commands m WHERE m.run_id = n.run_id AND m.sink = n.sink AND "
+                 "m.accepted = 1 AND m.delivered = 0 ORDER BY m.nc_command_id LIMIT 1) "
+                 "FROM nc_commands n JOIN runs r ON r.run_id = n.run_id WHERE r.status = 'finished' AND n.accepted = 1 "
+                 "GROUP BY n.run_id, n.sink HAVING SUM(n.delivered IS NOT 1) > 0 ORDER BY n.run_id, n.sink");
+    while (st.step()) {
+      const std::int64_t failed = st.column_int(3), unsettled = st.column_int(4);
+      std::string line = "nc_commands: run " + st.column_text(0) + " (finished): of its " + st.column_text(2) +
+                         " command(s) the safety gate passed to " + st.column_text(1) + ", ";
+      if (failed) line += std::to_string(failed) + " not delivered (delivered 0: the sink failed)";
+      if (failed && unsettled) line += " and ";
+      if (unsettled)
+        line += std::to_string(unsettled) + " not settled (delivered NULL: the run stopped before their delivery, e.g. "
+                "killed and resumed without NC output)";
+      line += ", time_s " + common::shortest_text(st.column_double(5)) + " to " + common::shortest_text(st.column_double(6));
+      if (failed && !st.column_text(7).empty()) line += "; the sink's error: " + st.column_text(7);
+      report.findings.push_back(line);
+    }
+  }
   // The indicators a run ended with (version 5) are the JSON object alc replay --json printed.
   if (version >= 5) {
     // (Its reader, the report, shows a document it cannot read as such; an object with "outputs" is

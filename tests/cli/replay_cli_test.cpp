@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "../cli_support.hpp"
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <cstdio>
@@ -22,6 +23,19 @@ using alc_test::slurp;
 fs::path work_dir() { return alc_test::work_dir("replay_cli_test"); }
 
 Run alc(const std::string& args) { return alc_test::run_alc(args, "replay_cli_test"); }
+
+// `alc ARGS` run from the directory `cwd` (a relative scenario path is another path there).
+Run alc_in(const fs::path& cwd, const std::string& args) {
+  const fs::path dir = work_dir();
+  const std::string cmd = "cd \"" + cwd.string() + "\" && \"" + std::string(ALC_CLI_PATH) + "\" " + args + " >\"" +
+                          (dir / "cwd_out").string() + "\" 2>\"" + (dir / "cwd_err").string() + "\" </dev/null";
+  const int status = std::system(cmd.c_str());
+  Run r;
+  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  r.out = slurp(dir / "cwd_out");
+  r.err = slurp(dir / "cwd_err");
+  return r;
+}
 
 nlohmann::json indicators_of(const std::string& text) {
   nlohmann::json j = nlohmann::json::parse(text);
@@ -164,6 +178,86 @@ TEST_CASE("alc replay --case all --resume: after a kill, finished cases are show
   const Run right = alc("replay --case all --json --db \"" + db.string() + "\" --resume");
   REQUIRE(right.exit_code == 0);
   CHECK(indicators_of(right.out) == indicators_of(whole.out));
+}
+
+TEST_CASE("alc replay FILE --resume finds the run by content: another path, another cwd, a copy - it ends as an uninterrupted run") {
+  const fs::path one = work_dir() / "content_cwd1", two = work_dir() / "content_cwd2", db = work_dir() / "content.sqlite",
+                 whole_db = work_dir() / "content_whole.sqlite";
+  fs::remove(db);
+  fs::remove(whole_db);
+  fs::create_directories(one);
+  fs::create_directories(two);
+  REQUIRE(alc("simulate --case B --out \"" + (one / "mix.csv").string() + "\"").exit_code == 0);
+  const Run whole = alc("replay \"" + (one / "mix.csv").string() + "\" --json --db \"" + whole_db.string() + "\"");
+  REQUIRE(whole.exit_code == 0);
+  // Begun as ./mix.csv in one directory (stored as 'file mix.csv') ...
+  const Run stopped = alc_in(one, "replay ./mix.csv --db \"" + db.string() + "\" --stop-at 20");
+  INFO(stopped.err);
+  REQUIRE(stopped.exit_code == 0);
+  // ... continued by its absolute path from another directory (before: "no unfinished run of 'file /…/mix.csv'") ...
+  const Run second = alc_in(two, "replay \"" + (one / "mix.csv").string() + "\" --db \"" + db.string() + "\" --resume --stop-at 60");
+  INFO(second.err);
+  REQUIRE(second.exit_code == 0);
+  CHECK_THAT(second.err, Catch::Matchers::Contains("stopped at 60 h of scenario time (run 1 in"));
+  // ... and finished from a byte-identical copy under another name.
+  fs::copy_file(one / "mix.csv", two / "copy.csv", fs::copy_options::overwrite_existing);
+  const Run third = alc_in(two, "replay copy.csv --json --db \"" + db.string() + "\" --resume");
+  INFO(third.err);
+  REQUIRE(third.exit_code == 0);
+  CHECK(indicators_of(third.out) == indicators_of(whole.out));
+  // One run, finished, whose records equal the uninterrupted run's value for value (shortest round-trip text).
+  for (const char* table : {"input_samples", "predictions", "probe_measurements", "phase_changes",
+                            "probe_interval_changes", "nc_commands"}) {
+    INFO(table);
+    const Run a = alc("db export \"" + db.string() + "\" --table " + table + " --out -");
+    const Run b = alc("db export \"" + whole_db.string() + "\" --table " + table + " --out -");
+    REQUIRE(a.exit_code == 0);
+    REQUIRE(b.exit_code == 0);
+    CHECK(a.out == b.out);
+  }
+  const Run runs = alc("db export \"" + db.string() + "\" --table runs --out -");
+  CHECK(std::count(runs.out.begin(), runs.out.end(), '\n') == 2);  // header + one run
+  CHECK_THAT(runs.out, Catch::Matchers::Contains("file mix.csv") && Catch::Matchers::Contains("finished"));
+  CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
+}
+
+TEST_CASE("alc replay FILE --resume without a run of its content and identity names the unfinished runs there are") {
+  const fs::path one = work_dir() / "nomatch_cwd1", other = work_dir() / "nomatch_cwd2", db = work_dir() / "nomatch.sqlite";
+  fs::remove(db);
+  fs::create_directories(one);
+  fs::create_directories(other);
+  REQUIRE(alc("simulate --case B --out \"" + (one / "mix.csv").string() + "\"").exit_code == 0);
+  REQUIRE(alc_in(one, "replay mix.csv --db \"" + db.string() + "\" --stop-at 20").exit_code == 0);
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10").exit_code == 0);
+  const std::string before = slurp(db);
+  // Other content under another path: no run to resume; the error lists the two unfinished runs.
+  std::string text = slurp(one / "mix.csv");
+  const auto row = text.find('\n') + 1;
+  const auto digit = text.find_first_of("123456789", text.find(',', row));
+  REQUIRE(digit < text.find('\n', row));
+  text[digit] = text[digit] == '9' ? '8' : static_cast<char>(text[digit] + 1);
+  std::ofstream(other / "edited.csv", std::ios::binary) << text;
+  const Run edited = alc_in(other, "replay edited.csv --db \"" + db.string() + "\" --resume");
+  INFO(edited.err);
+  CHECK(edited.exit_code == 2);
+  CHECK_THAT(edited.err, Catch::Matchers::Contains("no unfinished run of 'file edited.csv' (content hash ") &&
+                             Catch::Matchers::Contains("with this identity to resume; its unfinished runs: run 1 of "
+                                                       "'file mix.csv' (stopped, its latest snapshot at 19.98 h from its "
+                                                       "first sample, content hash ") &&
+                             Catch::Matchers::Contains("; run 2 of 'case A' (stopped, its latest snapshot at 9.98 h from "
+                                                       "its first sample, content hash "));
+  // The same content with other parameters under another path: no run of that identity either.
+  const Run params = alc_in(other, "replay \"" + (one / "mix.csv").string() + "\" --db \"" + db.string() + "\" --resume --cp 8");
+  CHECK(params.exit_code == 2);
+  CHECK_THAT(params.err, Catch::Matchers::Contains("its unfinished runs: run 1 of 'file mix.csv'"));
+  // Other content under the stored path (mix.csv in another directory) is still refused as other data.
+  std::ofstream(other / "mix.csv", std::ios::binary) << text;
+  const Run same_name = alc_in(other, "replay mix.csv --db \"" + db.string() + "\" --resume");
+  CHECK(same_name.exit_code == 2);
+  CHECK_THAT(same_name.err, Catch::Matchers::Contains("run 1 of 'file mix.csv' was recorded from other data"));
+  CHECK(slurp(db) == before);  // nothing changed by a refusal
+  // A built-in case resumes as before.
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --resume").exit_code == 0);
 }
 
 TEST_CASE("alc replay --resume refuses other parameters than the stored run's") {

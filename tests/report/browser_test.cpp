@@ -57,6 +57,48 @@ TEST_CASE("browser: the report loads without console errors and its charts hold 
   CHECK(charts.at(0).at("series").size() == 2);  // predicted, measured
 }
 
+TEST_CASE("browser: commands passed but not delivered or not settled are drawn on the offset charts in their own colours",
+          "[report][browser]") {
+  const test::Scratch scratch("browser-undelivered");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  test::mark_undelivered(h.db, 3, 2);
+  std::size_t delivered = 0;
+  for (const auto& c : load_run(storage::HistoryReader(h.db), h.run).nc_commands)
+    delivered += c.kind == "offsets" && c.delivered == true;
+  REQUIRE(delivered > 0);
+  const auto page = dir / "report.html";
+  test::io_write(page, html_report(h.db, {}));
+  const test::Browser b = test::chromium(dir, "--virtual-time-budget=10000 --dump-dom", page);
+  REQUIRE(b.exit_code == 0);
+  INFO(b.err);
+  CHECK(b.err.find(":CONSOLE") == std::string::npos);
+  const std::string text = test::dom_check(b.out);
+  REQUIRE_FALSE(text.empty());
+  const auto j = nlohmann::json::parse(text);
+  CHECK(j.at("errors").empty());
+  // What the browser holds, per offset chart: every command as a marker of its kind, and the page's
+  // style gives each kind its own colour (green delivered, orange not delivered, purple not settled).
+  std::size_t offset_charts = 0;
+  for (const auto& c : j.at("charts")) {
+    if (c.at("id").get<std::string>().find("offsets-") == std::string::npos) continue;
+    ++offset_charts;
+    INFO(c.dump());
+    const auto& m = c.at("markers");
+    REQUIRE(m.contains("sent"));
+    REQUIRE(m.contains("undelivered"));
+    REQUIRE(m.contains("unsettled"));
+    CHECK(m.at("sent").at("count") == delivered);
+    CHECK(m.at("undelivered").at("count") == 3);
+    CHECK(m.at("unsettled").at("count") == 2);
+    CHECK(m.at("refused").at("count") == 1);
+    CHECK(m.at("sent").at("stroke") == "rgb(44, 160, 44)");
+    CHECK(m.at("undelivered").at("stroke") == "rgb(255, 127, 14)");
+    CHECK(m.at("unsettled").at("stroke") == "rgb(148, 103, 189)");
+  }
+  CHECK(offset_charts == 2);
+}
+
 TEST_CASE("browser: a screenshot of the report is kept as a test artifact", "[report][browser]") {
   const test::Scratch scratch("browser-shot");
   const auto& dir = scratch.dir;

@@ -71,6 +71,51 @@ TEST_CASE("report page of a short history: every chart - phases - updates - refu
   CHECK(html.find("@import") == std::string::npos);
 }
 
+TEST_CASE("report page: commands the gate passed but not delivered or not settled are counted, said and marked apart",
+          "[report][html]") {
+  const test::Scratch scratch("undelivered");
+  const auto& dir = scratch.dir;
+  const auto h = test::short_history(dir);
+  std::size_t passed = 0;
+  for (const auto& c : load_run(storage::HistoryReader(h.db), h.run).nc_commands) passed += c.kind == "offsets" && c.accepted;
+  REQUIRE(passed >= 6);
+  test::mark_undelivered(h.db, 3, 2);
+  const std::string html = html_report(h.db, {});
+  const std::string delivered = std::to_string(passed - 5);
+  // Counted (also as data for a reader of the page) and said in words, with the sink's error.
+  CHECK(html.find("<p class=\"nc-undelivered\" data-passed=\"" + std::to_string(passed) + "\" data-delivered=\"" +
+                  delivered + "\" data-not-delivered=\"3\" data-not-settled=\"2\"><strong>5 of the " +
+                  std::to_string(passed) + " offset commands the safety gate passed are not recorded as delivered to the NC</strong>: 3 not "
+                  "delivered (delivered 0: the sink failed: cannot create nc: Not a directory); 2 not settled") !=
+        std::string::npos);
+  CHECK(html.find("that were delivered to the NC (" + delivered + "); orange: passed but not delivered, the sink "
+                  "failed (3); purple: passed but not settled, no delivery recorded (2); red lines: refused commands (1)") !=
+        std::string::npos);
+  // Marked on both offset charts (µm, µrad), one marker per command, each in its own kind, and keyed.
+  CHECK(test::count(html, "<line class=\"marker marker-undelivered\"") == 2 * 3);
+  CHECK(test::count(html, "<line class=\"marker marker-unsettled\"") == 2 * 2);
+  CHECK(test::count(html, "NOT delivered: cannot create nc: Not a directory</title>") == 2 * 3);
+  CHECK(test::count(html, "not settled (no delivery recorded)</title>") == 2 * 2);
+  CHECK(test::count(html, "<i class=\"marker-key marker-key-undelivered\"></i>passed, NOT delivered (3)") == 2);
+  CHECK(test::count(html, "<i class=\"marker-key marker-key-unsettled\"></i>passed, not settled (2)") == 2);
+  CHECK(test::count(html, "<i class=\"marker-key marker-key-sent\"></i>passed, delivered (" + delivered + ")") == 2);
+  // Delivered ones are no longer "passed to the NC" without a word on delivery.
+  CHECK(html.find("passed to the NC") == std::string::npos);
+
+  // None delivered (a --nc-out that could not be written): the page says none reached the NC.
+  test::mark_undelivered(h.db, static_cast<int>(passed), 0);
+  const std::string none = html_report(h.db, {});
+  CHECK(none.find("<strong>None of the " + std::to_string(passed) +
+                  " offset commands the safety gate passed is recorded as delivered to the NC</strong>: " + std::to_string(passed) +
+                  " not delivered") != std::string::npos);
+  CHECK(test::count(none, "class=\"marker marker-sent") == 0);
+  CHECK(test::count(none, "<i class=\"marker-key marker-key-sent\"") == 0);
+  // A history whose commands were all delivered has no such note.
+  std::filesystem::create_directories(dir / "whole");
+  const auto whole = test::short_history(dir / "whole");
+  CHECK(html_report(whole.db, {}).find("<p class=\"nc-undelivered\"") == std::string::npos);
+}
+
 TEST_CASE("indicators from the history: M - Pd - CP end - NG phases - updates as the replay's - P99 over the probes",
           "[report][html]") {
   const test::Scratch scratch("indicators");

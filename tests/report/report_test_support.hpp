@@ -3,6 +3,7 @@
 // offsets sent to an NC directory, and one refused offset command added), the report written from
 // it, and headless chromium run on a file.
 #include <catch2/catch.hpp>
+#include <sqlite3.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -63,6 +64,30 @@ inline ShortHistory short_history(const std::filesystem::path& dir) {
                                       "X step 900 µm exceeds the limit of 50 µm", std::nullopt, ""});
   writer.close();
   return h;
+}
+
+// Runs SQL on a history file (to make the states a report must show apart).
+inline void exec_sql(const std::filesystem::path& file, const std::string& sql) {
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(file.c_str(), &db) == SQLITE_OK);
+  char* error = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error);
+  INFO((error ? error : ""));
+  sqlite3_free(error);
+  sqlite3_close(db);
+  REQUIRE(rc == SQLITE_OK);
+}
+
+// The short history with its first `failed` accepted offset commands marked not delivered (delivered
+// 0, the sink's error) and the next `unsettled` not settled (delivered NULL), as a failed --nc-out and
+// a kill leave them; the rest stay delivered.
+inline void mark_undelivered(const std::filesystem::path& db, int failed, int unsettled) {
+  const std::string accepted =
+      "SELECT nc_command_id FROM nc_commands WHERE accepted = 1 AND kind = 'offsets' ORDER BY nc_command_id";
+  exec_sql(db, "UPDATE nc_commands SET delivered = 0, delivery_message = 'cannot create nc: Not a directory' "
+               "WHERE nc_command_id IN (" + accepted + " LIMIT " + std::to_string(failed) + ");"
+               "UPDATE nc_commands SET delivered = NULL, delivery_message = '' WHERE nc_command_id IN (" +
+                   accepted + " LIMIT " + std::to_string(unsettled) + " OFFSET " + std::to_string(failed) + ");");
 }
 
 inline void io_write(const std::filesystem::path& file, const std::string& text) {

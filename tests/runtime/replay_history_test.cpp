@@ -327,3 +327,69 @@ TEST_CASE("run lifecycle: a resume with other channels is refused naming them, s
                     Catch::Contains("other outputs: stored [E_X0C], given [E_Y0C]"));
   CHECK(storage::HistoryReader(file).runs().size() == 1);
 }
+
+TEST_CASE("run lifecycle: the run a resume continues is found by identity, the scenario's content included, not by path") {
+  const auto run = [](storage::RunId id, const std::string& source, const std::string& config,
+                      storage::RunStatus status = storage::RunStatus::Stopped) {
+    storage::RunRecord r;
+    r.run_id = id;
+    r.source = source;
+    r.config_json = config;
+    r.status = status;
+    return r;
+  };
+  const std::string mix = R"({"parameters":{"cp":1},"scenario_hash":"aaaa"})";
+  const std::string other = R"({"parameters":{"cp":1},"scenario_hash":"bbbb"})";
+  const std::string supervisor = R"({"parameters":{"cp":1}})";
+  const std::vector<storage::RunRecord> runs = {
+      run(1, "file mix.csv", mix),
+      run(2, "file old.csv", mix, storage::RunStatus::Finished),  // finished: never resumed
+      run(3, "file b.csv", other),
+      run(4, "supervisor dmu-1", supervisor)};
+  const auto id = [&](const std::vector<storage::RunRecord>& in, const std::string& source, const std::string& config) {
+    const auto found = run_to_resume(in, source, config);
+    return found ? found->run_id : storage::RunId{0};
+  };
+  CHECK(id(runs, "file /data/mix.csv", mix) == 1);   // another path to the same data (or a copy)
+  // The same path with other data: the run of that data if there is one, else the path's run, which the
+  // lifecycle refuses as recorded from other data.
+  CHECK(id(runs, "file mix.csv", other) == 3);
+  CHECK(id(runs, "file mix.csv", R"({"parameters":{"cp":1},"scenario_hash":"cccc"})") == 1);
+  CHECK(id(runs, "file /data/b-copy.csv", other) == 3);
+  // The same path and identity first, else the latest run of that identity.
+  std::vector<storage::RunRecord> more = runs;
+  more.push_back(run(5, "file /data/mix.csv", mix));
+  CHECK(id(more, "file mix.csv", mix) == 1);
+  CHECK(id(more, "file elsewhere.csv", mix) == 5);
+  // Other parameters under another path: none (the caller lists the unfinished runs).
+  CHECK(id(runs, "file /data/mix.csv", R"({"parameters":{"cp":2},"scenario_hash":"aaaa"})") == 0);
+  // Without a scenario hash (a supervisor) only the same source is a match, as before.
+  CHECK(id(runs, "supervisor dmu-2", supervisor) == 0);
+  CHECK(id(runs, "supervisor dmu-1", supervisor) == 4);
+  CHECK(id(runs, "supervisor dmu-1", R"({"parameters":{"cp":3}})") == 4);  // refused by the lifecycle
+}
+
+TEST_CASE("run lifecycle: a resume that finds no run names the unfinished runs of the file") {
+  const TempDir dir;
+  const auto file = dir.path / "h.sqlite";
+  storage::RunRecord record;
+  record.source = "file mix.csv";
+  record.config_json = R"({"parameters":{"cp_duration_s":23400.0},"scenario_hash":"aaaa"})";
+  record.input_names = {"T_ENV"};
+  record.output_names = {"E_X0C"};
+  {
+    storage::HistoryWriter writer(file);
+    const RunLifecycle begun(writer, record, 3600.0);
+    writer.add(storage::InputSampleRecord{begun.run(), 0, 3600.0, {20.0}});
+    writer.save_snapshot({begun.run(), 3600.0 + 20 * 3600.0, 1, "test/1", false, "x"});
+    writer.end_run(begun.run(), storage::RunStatus::Stopped);
+  }
+  storage::HistoryWriter writer(file);
+  storage::RunRecord edited = record;
+  edited.source = "file edited.csv";
+  edited.config_json = R"({"parameters":{"cp_duration_s":23400.0},"scenario_hash":"bbbb"})";
+  CHECK_THROWS_WITH(RunLifecycle(writer, file, edited, 3600.0, RunLifecycle::Resume{}),
+                    file.string() + ": no unfinished run of 'file edited.csv' (content hash bbbb) with this identity "
+                                    "to resume; its unfinished runs: run 1 of 'file mix.csv' (stopped, its latest "
+                                    "snapshot at 20 h from its first sample, content hash aaaa)");
+}

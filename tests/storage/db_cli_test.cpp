@@ -141,6 +141,59 @@ TEST_CASE("alc db check reports an NC command marked delivered although the safe
                  Catch::Contains("1 problem(s) found"));
 }
 
+TEST_CASE("alc db check names a finished run whose passed NC commands were not delivered or not settled, exit 0",
+          "[storage][cli]") {
+  ScratchDir dir;
+  const auto file = dir / "undelivered.sqlite";
+  {
+    HistoryWriter writer(file);
+    // Run 1, finished: the sink failed (delivered 0), as `alc replay --nc-out` into a path under a file.
+    const RunId failed = writer.begin_run(test::small_run());
+    writer.add(NcCommandRecord{failed, 60.0, "offsets", "G10 L2 P1 X0.001", "file:afile", true, ""});
+    writer.add(NcCommandRecord{failed, 120.0, "offsets", "G10 L2 P1 X0.002", "file:afile", true, ""});
+    writer.add(NcCommandRecord{failed, 180.0, "offsets", R"({"x_mm":9})", "file:afile", false, "beyond max_offset"});
+    REQUIRE(writer.record_delivery(failed, "file:afile", false, "cannot create afile: Not a directory") == 2);
+    writer.end_run(failed, RunStatus::Finished);
+    // Run 2, finished: killed before the delivery and resumed without NC output (delivered NULL), then a
+    // row of a second sink that was delivered.
+    const RunId killed = writer.begin_run(test::small_run());
+    writer.add(NcCommandRecord{killed, 60.0, "offsets", "G10 L2 P1 X0.001", "file:ncK", true, ""});
+    writer.add(NcCommandRecord{killed, 90.0, "offsets", "G10 L2 P1 X0.001", "file:ncK", true, ""});
+    writer.add(NcCommandRecord{killed, 100.0, "offsets", "G10 L2 P1 X0.001", "file:other", true, ""});
+    REQUIRE(writer.record_delivery(killed, "file:other", true, "written to other/program.ngc") == 1);
+    writer.end_run(killed, RunStatus::Finished);
+    // Run 3, stopped: its commands may still be settled by a resume, so it is no finding.
+    const RunId stopped = writer.begin_run(test::small_run());
+    writer.add(NcCommandRecord{stopped, 60.0, "offsets", "G10 L2 P1 X0.001", "file:ncS", true, ""});
+    writer.end_run(stopped, RunStatus::Stopped);
+    // Run 4, finished and delivered: no finding.
+    const RunId sound = writer.begin_run(test::small_run());
+    writer.add(NcCommandRecord{sound, 60.0, "offsets", "G10 L2 P1 X0.001", "file:ok", true, ""});
+    REQUIRE(writer.record_delivery(sound, "file:ok", true, "written") == 1);
+    writer.end_run(sound, RunStatus::Finished);
+  }
+  const Outcome check = run_alc("db check " + quoted(file));
+  INFO(check.output);
+  // Records of what happened, not damage (docs/storage.md: a problem is an inconsistency): exit 0.
+  CHECK(check.exit_code == 0);
+  CHECK_THAT(check.output,
+             Catch::Contains("finding: nc_commands: run 1 (finished): of its 2 command(s) the safety gate passed to "
+                             "file:afile, 2 not delivered (delivered 0: the sink failed), time_s 60 to 120; the sink's "
+                             "error: cannot create afile: Not a directory") &&
+                 Catch::Contains("finding: nc_commands: run 2 (finished): of its 2 command(s) the safety gate passed to "
+                                 "file:ncK, 2 not settled (delivered NULL") &&
+                 Catch::Contains("ok (no problem; 2 finding(s) above"));
+  CHECK(check.output.find("run 3") == std::string::npos);
+  CHECK(check.output.find("run 4") == std::string::npos);
+  CHECK(check.output.find("file:other") == std::string::npos);
+  // With a problem as well, the findings are still named and the exit is 1 for the problem.
+  RawDb(file).exec("UPDATE nc_commands SET delivered = 0 WHERE accepted = 0");
+  const Outcome both = run_alc("db check " + quoted(file));
+  INFO(both.output);
+  CHECK(both.exit_code == 1);
+  CHECK_THAT(both.output, Catch::Contains("finding: nc_commands: run 1 (finished)") && Catch::Contains("1 problem(s) found"));
+}
+
 TEST_CASE("alc db commands name the file and the cause for a file that is not a history", "[storage][cli]") {
   ScratchDir dir;
   const auto file = dir / "notes.txt";

@@ -36,7 +36,8 @@ struct HBand {                      // shaded y range across the plot (the ACL b
 
 struct Marker {                     // vertical line at x
   double x = 0.0;
-  std::string kind;                 // CSS class: "update", "rejected", "refused", "sent"
+  std::string kind;                 // CSS class: "update", "rejected", "refused", "sent" (passed and delivered),
+                                    // "undelivered" (passed, delivered 0), "unsettled" (passed, delivered NULL)
   std::string label;                // tooltip
 };
 
@@ -48,7 +49,7 @@ inline constexpr std::size_t kMarkersAsLines = 40;
 // Lines are drawn while the markers of a kind are this far apart on average [px] (at most 109 in a plot
 // of 872 px): denser (a 90-day run's ~1077 model updates) they covered the whole plot in their
 // colour. Then each pixel column holding markers of the kind gets one short tick of kMarkerTickPx at
-// the plot's edge (the top; the bottom for commands sent, drawn there anyway), a rug that shows where
+// the plot's edge (the top; the bottom for commands passed by the gate, drawn there anyway), a rug that shows where
 // and how often without hiding the data: <path class="marker marker-KIND marker-ticks"
 // data-markers=N data-columns=K>.
 inline constexpr double kMarkerMinSpacingPx = 8.0;
@@ -63,6 +64,8 @@ struct Chart {
   std::vector<Span> spans;
   std::vector<HBand> hbands;
   std::vector<Marker> markers;
+  // Legend keys of marker kinds (kind, text), drawn after the series' keys in the kind's colour.
+  std::vector<std::pair<std::string, std::string>> marker_keys;
   std::optional<std::pair<double, double>> x_range;  // default: the data's
   int width = 960;                  // [px]
   int height = 230;                 // [px]

@@ -108,6 +108,16 @@ class Replay {
   storage::RunRecord run_record() const;
   static std::string nc_sink_name(const std::filesystem::path& dir) { return "file:" + dir.string(); }
 
+  // A resumed run that recorded NC commands before its snapshot, resumed without NC output (--nc-out
+  // cannot be combined with --resume): the rest of the run has none.
+  struct NcOutputEnded {
+    std::vector<std::string> sinks;   // where its earlier commands went ("file:DIR"), each once
+    double from_s = 0.0;              // [s] scenario time of the snapshot resumed from (kSnapshotBeforeStart_s: the start)
+    std::size_t not_delivered = 0;    // accepted commands before it whose sink failed (delivered 0)
+    std::size_t not_settled = 0;      // accepted commands before it never settled (delivered NULL: a kill)
+  };
+  const std::optional<NcOutputEnded>& nc_output_ended() const { return nc_output_ended_; }
+
  private:
   void restore(const storage::ControllerSnapshot& snapshot);
   const scenarios::Scenario& scenario_;
@@ -121,6 +131,7 @@ class Replay {
   std::unique_ptr<Observer> recorder_;
   std::optional<NcCommandObserver> nc_;
   std::optional<nc::NcOutputSummary> nc_summary_;
+  std::optional<NcOutputEnded> nc_output_ended_;
   double total_s_ = 0.0;
   bool ended_ = false;
 };

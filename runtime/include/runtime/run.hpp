@@ -1,6 +1,6 @@
 #pragma once
 // The lifecycle of a run recorded in a history: begin (or resume the latest unfinished run of the
-// same source and identity), the snapshot schedule, delivery records of NC output, end.
+// same identity: the same data, by content, and parameters), the snapshot schedule, delivery records of NC output, end.
 // Used by replay and bench alike (and the supervisor next).
 //
 // Snapshot schedule: after the first sample at or past the run's first sample + every_s, then
@@ -14,6 +14,7 @@
 
 #include "alc/controller.hpp"
 #include "runtime/driver.hpp"
+#include "storage/history_reader.hpp"
 #include "storage/history_writer.hpp"
 
 namespace alc::runtime {
@@ -23,9 +24,23 @@ namespace alc::runtime {
 // same identity make the same decisions on the same data.
 nlohmann::json canonical_parameters(const AlcParameters& parameters, std::string_view schedule = "paper");
 
-// The run of `source` that a resume continues: the latest one running or stopped (none if there is none).
+// The latest run of `source` running or stopped (none if there is none).
 std::optional<storage::RunRecord> latest_unfinished_run(const std::vector<storage::RunRecord>& runs,
                                                         const std::string& source);
+
+// The "scenario_hash" of a run's config_json (a replay's: the content hash of its data), "" if none.
+std::string scenario_hash_of(const std::string& config_json);
+
+// The run a resume continues: the latest unfinished run of `source` with this identity (config_json);
+// else, when the identity holds a scenario hash (a replay), the latest unfinished run of this identity
+// under another source (the same data by another path, from another directory, a copy); else the
+// latest unfinished run of `source` (which the caller refuses naming what differs); else none.
+std::optional<storage::RunRecord> run_to_resume(const std::vector<storage::RunRecord>& runs, const std::string& source,
+                                                const std::string& config_json);
+
+// "its unfinished runs: run 3 of 'file mix.csv' (stopped, its latest snapshot at 20 h from its first
+// sample, content hash …)" for every unfinished run of `runs`, or "there is no unfinished run in it".
+std::string unfinished_runs_text(const storage::HistoryReader& history, const std::vector<storage::RunRecord>& runs);
 
 // What differs between two run configurations (JSON), leaf by leaf: "/parameters/cp_duration_s: stored
 // 23400, given 43200; ..." (at most 5, then how many more); both texts whole if either is not JSON.
@@ -44,8 +59,10 @@ class RunLifecycle : public Observer {
 
   // Begins a new run (committed at once).
   RunLifecycle(storage::HistoryWriter& writer, const storage::RunRecord& record, double snapshot_every_s);
-  // Resumes the latest unfinished run of record.source in `db` (the file `writer` has open): refuses
-  // (ResumeRefused) when there is none or its config_json differs from record.config_json. Records
+  // Resumes the unfinished run of `record` in `db` (the file `writer` has open; run_to_resume: by
+  // identity, the scenario's content included, so another path to the same data is the same run):
+  // refuses (ResumeRefused) when there is none (naming the unfinished runs there are) or the run found
+  // has another config_json or other channels (naming what differs). Records
   // after its latest snapshot are deleted; that snapshot is resumed_from().
   struct Resume {};
   RunLifecycle(storage::HistoryWriter& writer, const std::filesystem::path& db, const storage::RunRecord& record,

@@ -13,6 +13,10 @@ namespace alc::storage {
 
 struct CheckReport {
   std::vector<std::string> problems;   // one line each; empty = the database is sound
+  // What the history truly records but a reader should know, one line each; not a problem (the file is
+  // sound): a finished run whose NC commands the safety gate passed never reached the NC (delivered 0:
+  // the sink failed; NULL: not settled, the run was killed before the delivery and resumed without it).
+  std::vector<std::string> findings;
   bool ok() const { return problems.empty(); }
 };
 
