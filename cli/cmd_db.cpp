@@ -62,15 +62,15 @@ void run_check(const std::string& file) {
   const auto report = storage::check_history(file, [](const storage::ControllerSnapshot& s) {
     return s.format == runtime::kRunStateFormat ? runtime::run_state_problem(s) : std::string();
   });
-  // Findings (NC commands of a finished run that never reached the NC) are true records of what
+  // Findings (NC commands of a finished run not recorded as delivered) are true records of what
   // happened, not damage: said on stdout, and the exit stays 0 when nothing else is wrong.
   for (const auto& finding : report.findings) std::cout << file << ": finding: " << finding << "\n";
   if (report.ok()) {
     std::cout << file << ": ok"
               << (report.findings.empty() ? std::string()
                                           : " (no problem; " + std::to_string(report.findings.size()) +
-                                                " finding(s) above: NC commands the safety gate passed that never "
-                                                "reached the NC)")
+                                                " finding(s) above: NC commands the safety gate passed that are not "
+                                                "recorded as delivered to the NC)")
               << "\n";
     return;
   }

@@ -444,8 +444,8 @@ void run_replay(const ReplayArgs& a) {
       std::string before;
       if (ended->not_settled)
         before += "; " + std::to_string(ended->not_settled) +
-                  " accepted command(s) before it were never delivered (not settled: the run stopped before its NC "
-                  "files were written)";
+                  " accepted command(s) before it are not recorded as delivered (not settled: the run stopped before "
+                  "their delivery was recorded)";
       if (ended->not_delivered)
         before += "; " + std::to_string(ended->not_delivered) + " accepted command(s) before it were not delivered (the sink failed)";
       log::get("replay")->warn("{}: run {} had NC output ({}); this resume has none (--nc-out cannot be combined with "
@@ -469,13 +469,22 @@ void run_replay(const ReplayArgs& a) {
     // (the replay did run); the reason belongs beside it.
     const runtime::ReplayReport& r = reports.back().second;
     const auto rows = static_cast<std::int64_t>(replay->position());
+    // The driver of this process saw the samples since the resume only; the count is the whole run's.
     const std::string& first_set_aside = replay->driver().first_rejected_sample();
-    const std::string first = first_set_aside.empty() ? std::string() : "; the first: " + first_set_aside;
+    const std::string first =
+        first_set_aside.empty()
+            ? std::string()
+            : (plans[k] == ResumePlan::Resume ? "; the first since the resume: " : "; the first: ") + first_set_aside;
     if (!std::isfinite(r.cp_end_s) && replay->finished()) {
       if (r.rejected_samples == rows)
         log::get("replay")->warn("{}: CP never ended: every sample ({}) was set aside, so no model was made and "
                                  "nothing was compensated or evaluated{}",
                                  source, rows, first);
+      else if (r.rejected_fits == 0 && r.rejected_samples > 0)
+        // No fit was tried: no accepted sample came at or after the end of CP (the rest set aside).
+        log::get("replay")->warn("{}: CP never ended: {} of {} samples were set aside and no accepted sample reached "
+                                 "the end of CP, so no model was made and nothing was compensated or evaluated{}",
+                                 source, r.rejected_samples, rows, first);
       else {
         const std::string& why = replay->driver().last_rejected_fit();
         log::get("replay")->warn("{}: CP never ended: {} fits were rejected, so no model was made and nothing was "
@@ -487,7 +496,7 @@ void run_replay(const ReplayArgs& a) {
       log::get("replay")->warn("{}: {} recorded measurement(s) after CP beyond the plausible limit (--plausible-lin, "
                                "--plausible-ang) were left out of the indicators; the first: {}",
                                source, r.implausible_measurements, r.first_implausible);
-    if (r.rejected_samples > 0 && r.rejected_samples < rows)
+    if (r.rejected_samples > 0 && r.rejected_samples < rows && !(r.rejected_fits == 0 && !std::isfinite(r.cp_end_s)))
       log::get("replay")->warn("{}: {} of {} samples were set aside{}", source, r.rejected_samples, rows, first);
     if (!a.residuals.empty()) scenarios::write_scenario_csv(a.residuals, replay->residuals());
   }

@@ -652,7 +652,9 @@ bool Controller::reidentify(double time_s, ControllerOutput& out, const std::str
 
 void Controller::advance(double time_s, ControllerOutput& out) {
   if (state_.phase == Phase::Calibration) {
-    if (time_s < state_.start_time_s + params_.cp_duration_s) return;
+    // Within 1 ms, as a probe's due time (probing::reached): 124200.123 + 23400 lies 1 ulp after a
+    // recorded 147600.123, and CP ended a sample later than on the same recording in whole seconds.
+    if (!probing::reached(time_s, state_.start_time_s + params_.cp_duration_s)) return;
     // Try once per new probe: a failed first fit extends CP until the data suffice.
     if (static_cast<int>(state_.probes.size()) == state_.probes_at_last_attempt) return;
     state_.probes_at_last_attempt = static_cast<int>(state_.probes.size());
@@ -673,7 +675,7 @@ void Controller::advance(double time_s, ControllerOutput& out) {
     return;
   }
   if (state_.phase == Phase::PostCalibration && std::isfinite(params_.update_interval_s) &&
-      time_s >= state_.last_update_s + params_.update_interval_s) {
+      probing::reached(time_s, state_.last_update_s + params_.update_interval_s)) {
     // A failed periodic fit waits for the next interval too, so it is not retried every sample.
     const double due = state_.last_update_s + params_.update_interval_s;
     if (!reidentify(time_s, out, "periodic parameter update")) state_.last_update_s = due;
@@ -723,7 +725,8 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   h.inputs.row(row) = inputs.transpose();
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
-  if (state_.phase == Phase::PostCalibration && schedule_->checks_each_sample() && time_s < state_.next_probe_due_s)
+  if (state_.phase == Phase::PostCalibration && schedule_->checks_each_sample() &&
+      !probing::reached(time_s, state_.next_probe_due_s))
     check_due(time_s, out);
   trim();
   out.prediction = compensated(time_s, out);

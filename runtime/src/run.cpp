@@ -178,7 +178,8 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
     return run;
   }();
   if (found->source != record.source)
-    log::get("runtime")->info("run {} of '{}' is resumed as '{}': the same data (content hash {}) and identity",
+    // Said at warn (the default log level shows it): the user named another file than the run's.
+    log::get("runtime")->warn("run {} of '{}' is continued as '{}': the same data (content hash {}) and identity",
                               found->run_id, found->source, record.source, scenario_hash_of(record.config_json));
   // Another recording under the same name: say so (both content hashes) rather than "other parameters".
   if (const std::string stored = scenario_hash_of(found->config_json), given = scenario_hash_of(record.config_json);

@@ -194,8 +194,8 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
       if (failed) line += std::to_string(failed) + " not delivered (delivered 0: the sink failed)";
       if (failed && unsettled) line += " and ";
       if (unsettled)
-        line += std::to_string(unsettled) + " not settled (delivered NULL: the run stopped before their delivery, e.g. "
-                "killed and resumed without NC output)";
+        line += std::to_string(unsettled) + " not settled (delivered NULL: the run stopped before their delivery was "
+                "recorded, e.g. killed and resumed without NC output)";
       line += ", time_s " + common::shortest_text(st.column_double(5)) + " to " + common::shortest_text(st.column_double(6));
       if (failed && !st.column_text(7).empty()) line += "; the sink's error: " + st.column_text(7);
       report.findings.push_back(line);

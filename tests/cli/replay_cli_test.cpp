@@ -199,6 +199,9 @@ TEST_CASE("alc replay FILE --resume finds the run by content: another path, anot
   INFO(second.err);
   REQUIRE(second.exit_code == 0);
   CHECK_THAT(second.err, Catch::Matchers::Contains("stopped at 60 h of scenario time (run 1 in"));
+  // Another name than the run's is said at the default log level.
+  CHECK_THAT(second.err, Catch::Matchers::Contains("run 1 of 'file mix.csv' is continued as 'file " +
+                                                   (one / "mix.csv").string() + "': the same data (content hash "));
   // ... and finished from a byte-identical copy under another name.
   fs::copy_file(one / "mix.csv", two / "copy.csv", fs::copy_options::overwrite_existing);
   const Run third = alc_in(two, "replay copy.csv --json --db \"" + db.string() + "\" --resume");
@@ -397,6 +400,18 @@ TEST_CASE("alc replay: samples set aside are counted at the end and the first 10
   CHECK(count(some.err, " rejected: ") == 10);
   CHECK_THAT(some.err, Catch::Matchers::Contains("part.csv: 30 of 1440 samples were set aside; the first: sample 600: "));
   CHECK_THAT(some.out, Catch::Matchers::Contains(", samples set aside 30\n") && !Catch::Matchers::Contains("Pd = - %"));
+
+  // All but the first 12 samples set aside: no fit was tried, and the closing warning says why (before:
+  // "CP never ended: 0 fits were rejected", which blamed the fits).
+  const fs::path most = work_dir() / "most.csv";
+  write(most, 0.0, 12, 24 * 60);
+  const Run nearly = alc("replay \"" + most.string() + "\" --cp 2");
+  CHECK(nearly.exit_code == 0);
+  CHECK_THAT(nearly.err, Catch::Matchers::Contains("most.csv: CP never ended: 1428 of 1440 samples were set aside and no "
+                                                   "accepted sample reached the end of CP, so no model was made") &&
+                             Catch::Matchers::Contains("; the first: sample 12: ") &&
+                             !Catch::Matchers::Contains("fits were rejected") &&
+                             !Catch::Matchers::Contains("1428 of 1440 samples were set aside; the first"));
 }
 
 TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {

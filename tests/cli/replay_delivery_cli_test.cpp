@@ -175,7 +175,7 @@ TEST_CASE("a run with NC output killed and resumed without --nc-out: the resume 
   }
   REQUIRE(unsettled > 0);
   CHECK_THAT(resumed.err, Catch::Matchers::Contains("; " + std::to_string(unsettled) +
-                                                    " accepted command(s) before it were never delivered"));
+                                                    " accepted command(s) before it are not recorded as delivered"));
   const Run check = run_alc("db check \"" + db.string() + "\"");
   INFO(check.out << check.err);
   CHECK(check.exit_code == 0);

@@ -90,7 +90,9 @@ TEST_CASE("replay: time stamps with fractions of a second probe at the same rows
   // A due time is a sum of doubles: 124200.123 + 7200 is 131400.12300000002, 1 ulp after the recorded
   // 131400.123, and that probe used to wait for the next measured row (5 min later), which moved the
   // schedule for the rest of the run (M and the NG phases differed from the same recording shifted by
-  // 0.5 s). Every probe row of the shifted recordings is that of the unshifted one.
+  // 0.5 s). The end of CP likewise: 124200.123 + 3 h is 1 ulp after the recorded 135000.123, and CP
+  // ended a sample later (an extra CP probe). Every probe row of the shifted recordings is that of the
+  // unshifted one.
   Scenario s = synthetic(5);
   ProbeTimes reference;
   Replay clean(s, in_memory(parameters(), &reference));
@@ -98,9 +100,9 @@ TEST_CASE("replay: time stamps with fractions of a second probe at the same rows
   REQUIRE(reference.times.size() > 20);
   // The times as a CSV gives them: the double nearest to the decimal text ("131400.123").
   for (const std::string fraction : {".123", ".5"}) {
-    const double shift = 100000.0 + std::stod("0" + fraction);
+    const double shift = 124200.0 + std::stod("0" + fraction);
     Scenario shifted = s;
-    for (double& t : shifted.time_s) t = std::stod(std::to_string(static_cast<long long>(t) + 100000) + fraction);
+    for (double& t : shifted.time_s) t = std::stod(std::to_string(static_cast<long long>(t) + 124200) + fraction);
     ProbeTimes probes;
     Replay session(shifted, in_memory(parameters(), &probes));
     session.run();
