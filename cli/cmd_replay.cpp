@@ -334,10 +334,6 @@ void run_replay(const ReplayArgs& a) {
                                                              {"--cp", a.cp, "--since", a.since});
         !why.empty())
       throw UsageError(why);
-  for (const auto& [name, scenario] : cases)
-    if (const std::string note = runtime::sparse_measurements(scenario, params, (a.file.empty() ? "case " : "") + name);
-        !note.empty())
-      log::get("replay")->warn("{}", note);
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;
@@ -433,6 +429,10 @@ void run_replay(const ReplayArgs& a) {
     } catch (const runtime::ResumeRefused& e) {
       throw UsageError(e.what());
     }
+    // Said of a run that replays (not of one shown from its stored indicators), once nothing can refuse it.
+    if (const std::string note = runtime::sparse_measurements(scenario, params, (a.file.empty() ? "case " : "") + name);
+        !note.empty())
+      log::get("replay")->warn("{}", note);
     if (const auto& ended = replay->nc_output_ended()) {
       // --nc-out cannot be given with --resume: the rest of this run reaches no NC, and says so.
       std::string sinks;

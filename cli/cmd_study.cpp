@@ -14,10 +14,12 @@
 #include <mutex>
 #include <random>
 #include <thread>
+#include <tuple>
 
 #include "alc_version.hpp"
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
+#include "common/log.hpp"
 #include "common/number_text.hpp"
 #include "runtime/parameter_options.hpp"
 #include "runtime/replay.hpp"
@@ -122,9 +124,11 @@ std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
       if (fs::is_directory(f, ec)) throw UsageError(f + ": is a directory, not a scenario CSV");
       // A case is named by its file: the same file twice would be two cases of one name (and one row
       // of each set counted twice in every mean).
+      // Named by the path as given, written plainly (./a.csv and a.csv are one name), as alc replay does.
+      const std::string name = fs::path(f).lexically_normal().string();
       for (const auto& c : cases)
-        if (c.name == f) throw UsageError(f + ": given twice (a case is named by its file)");
-      cases.push_back({f, "file " + f, scenarios::read_scenario_csv(f), {}});
+        if (c.name == name) throw UsageError(f + ": given twice (a case is named by its file)");
+      cases.push_back({name, "file " + name, scenarios::read_scenario_csv(f), {}});
     }
   }
   for (auto& c : cases) c.content_hash = study::content_hash(c.scenario);
@@ -204,15 +208,29 @@ std::vector<storage::StudyRowRecord> sorted(std::vector<storage::StudyRowRecord>
   return rows;
 }
 
+// --csv -: the rows on stdout (a pipe gets the CSV alone) and the analysis on stderr.
+constexpr const char* kStdout = "-";
+
 void write_csv(const std::string& file, const study::StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows) {
+  if (file == kStdout) {
+    study::write_rows_csv(std::cout, info, rows);
+    std::cout.flush();
+    return;
+  }
   io::write_file_atomically(file, [&](std::ostream& os) { study::write_rows_csv(os, info, rows); });
 }
 
-void print_result(const study::StudyInfo& info, const std::vector<storage::StudyRowRecord>& rows, bool json,
-                  double limit) {
-  const study::Analysis a = study::analyse(info, rows, limit);
-  if (json) std::cout << study::analysis_json(a, info).dump(2) << "\n";
-  else study::print_analysis(std::cout, a, info);
+// Before anything is computed: --csv - and --json cannot share stdout; a file must be writable.
+void check_csv_option(const std::string& csv, bool json) {
+  if (csv == kStdout && json) throw UsageError("--csv - and --json both write to stdout: give --csv a file");
+  if (const std::string problem = csv.empty() || csv == kStdout ? "" : io::output_file_problem(csv); !problem.empty())
+    throw UsageError("--csv " + csv + ": " + problem);
+}
+
+void print_analysis(const study::Analysis& analysis, const study::StudyInfo& info, bool json, const std::string& csv) {
+  std::ostream& out = csv == kStdout ? std::cerr : std::cout;
+  if (json) out << study::analysis_json(analysis, info).dump(2) << "\n";
+  else study::print_analysis(out, analysis, info);
 }
 
 // The benchmark: the grid with shared work, then a seeded random sample of its runs as independent
@@ -303,8 +321,7 @@ void run_study_command(const StudyArgs& a) {
   }
   if (a.resume && a.db.empty()) throw UsageError("--resume needs --db");
   // Before the rows are computed, not after (hours of work, lost without --db).
-  if (const std::string problem = a.csv.empty() ? "" : io::output_file_problem(a.csv); !problem.empty())
-    throw UsageError("--csv " + a.csv + ": " + problem);
+  check_csv_option(a.csv, a.json);
   refuse_output_over_input("--csv", a.csv, a.db, "the study database");
   for (const std::string& f : a.files) refuse_output_over_input("--csv", a.csv, f, "a recording the study reads");
   if (a.grid != "paper") refuse_output_over_input("--csv", a.csv, a.grid, "the grid file");
@@ -316,7 +333,7 @@ void run_study_command(const StudyArgs& a) {
     std::error_code ec;
     if (fs::is_directory(a.db, ec)) throw UsageError("--db: " + a.db + " is a directory");
     const auto stored = storage::StudyStore::header_of(a.db);
-    const storage::StudyHeader now = info.header();
+    storage::StudyHeader now = info.header();
     if (stored && !a.resume)
       throw UsageError(a.db + " holds a study already: continue it with --resume, or give another --db");
     // The empty file of a run killed before its first row (a requeued SLURM task resumes it): begin.
@@ -325,11 +342,35 @@ void run_study_command(const StudyArgs& a) {
     if (stored) {
       const std::string diff = study::difference(*stored, now);
       if (!diff.empty()) throw UsageError("cannot resume the study in " + a.db + ": " + diff);
+      // A recording reached by another path is the stored case: its stored name stays the study's.
+      for (const std::string& r : study::renamed_cases(*stored, now))
+        log::get("study")->warn("{}: the same recording (content) as the study's case, continued under its stored name ({})",
+                                a.db, r);
+      now.cases_json = stored->cases_json;
+      info.cases = study::StudyInfo::of(*stored, a.db).cases;
       rows = storage::StudyStore::rows_of(a.db);
     }
     store = std::make_unique<storage::StudyStore>(
         a.db, now, stored ? storage::StudyStore::Existing::Continue : storage::StudyStore::Existing::Refuse);
     for (const auto& r : rows) done.emplace(r.set_index, r.case_index);
+  }
+  // A recording measured more sparsely than a set's schedule, as alc replay tells it: once per case, for
+  // the first set it concerns, with how many sets it concerns (the notes depend on three parameters only).
+  for (const study::StudyCase& c : cases) {
+    std::map<std::tuple<double, double, double>, std::string> notes;
+    std::size_t concerned = 0;
+    std::string first;
+    for (const study::ParameterSet& set : info.sets) {
+      if (!set.error.empty()) continue;
+      const AlcParameters& p = set.parameters;
+      const auto key = std::make_tuple(p.cp_duration_s, p.cp_interval_s, p.ng_interval_s);
+      auto it = notes.find(key);
+      if (it == notes.end()) it = notes.emplace(key, runtime::sparse_measurements(c.scenario, p, c.source)).first;
+      if (it->second.empty()) continue;
+      if (concerned++ == 0) first = it->second + " (set " + set.key + ")";
+    }
+    if (concerned > 0)
+      log::get("study")->warn("{}; {} of the {} sets are concerned", first, concerned, info.sets.size());
   }
   const std::size_t total = study::shard_rows(cases, info.sets, shard, shards);  // this shard's rows
   const std::size_t reused = done.size();
@@ -354,9 +395,16 @@ void run_study_command(const StudyArgs& a) {
   study::StudyStats st;
   {
     const StopSignals signals;
+    // The runs of thousands of sets would repeat their case's warnings once per set: each text once.
+    log::distinct_only(true);
+    struct Restore {
+      ~Restore() { log::distinct_only(false); }
+    } restore;
     st = study::run_study(cases, info.sets, o);
+    progress.finish();
+    if (const std::size_t repeats = log::repeats_withheld(); repeats > 0)
+      std::cerr << "study: " << repeats << " log line(s) of the runs repeated an earlier one and were not shown\n";
   }
-  progress.finish();
   const std::size_t computed = rows.size() - reused;
   if (st.stopped || g_stop) {
     const int sig = g_signal.load();
@@ -368,9 +416,10 @@ void run_study_command(const StudyArgs& a) {
   if (a.resume) std::cerr << "resumed " << a.db << ": " << reused << " rows reused, " << computed << " computed\n";
   rows = sorted(std::move(rows));
   if (!a.csv.empty()) write_csv(a.csv, info, rows);
-  print_result(info, rows, a.json, 5.0);
+  print_analysis(study::analyse(info, rows, 5.0), info, a.json, a.csv);
   if (!a.json && !a.quiet)
-    std::cerr << "study: " << rows.size() << " rows in " << progress.elapsed() << " s (" << st.runs
+    std::cerr << "study: " << rows.size() << " rows in " << common::shortest_text(std::round(progress.elapsed() * 10.0) / 10.0)
+              << " s (" << st.runs
               << " controller runs, " << st.forks << " forks)\n";
 }
 
@@ -389,6 +438,10 @@ void run_merge(const MergeArgs& a) {
       first = as_all;
     } else if (const std::string d = study::difference(*first, as_all); !d.empty()) {
       throw UsageError(f + " is not a shard of the study in " + a.shards.front() + ": " + d);
+    } else {
+      for (const std::string& r : study::renamed_cases(*first, as_all))
+        log::get("study")->warn("{}: the same recording (content) as a case of {}, merged under that name ({})", f,
+                                a.shards.front(), r);
     }
     if (!shard_names.insert(h->shard).second) throw UsageError(f + ": shard " + h->shard + " is given twice");
     // Shards of one split only: 1/3 with 2/2 overlap or leave gaps by construction.
@@ -423,6 +476,7 @@ void run_merge(const MergeArgs& a) {
 void run_report(const ReportArgs& a) {
   if (std::error_code missing; !fs::exists(a.file, missing)) throw UsageError(a.file + ": no such file");
   refuse_output_over_input("--csv", a.csv, a.file, "the study database");
+  check_csv_option(a.csv, a.json);
   const auto h = storage::StudyStore::header_of(a.file);
   if (!h) throw UsageError(a.file + ": holds no study");
   const study::StudyInfo info = study::StudyInfo::of(*h, a.file);
@@ -440,8 +494,7 @@ void run_report(const ReportArgs& a) {
   }
   if (!a.csv.empty()) write_csv(a.csv, info, rows);
   const study::Analysis analysis = study::analyse(info, rows, a.limit);
-  if (a.json) std::cout << study::analysis_json(analysis, info).dump(2) << "\n";
-  else study::print_analysis(std::cout, analysis, info);
+  print_analysis(analysis, info, a.json, a.csv);
   if (!a.svg.empty()) {
     const study::FiguresWritten w = study::write_figures(info, rows, analysis, a.svg, cp);
     for (const std::string& note : w.notes) std::cerr << "study report: " << note << "\n";
@@ -464,7 +517,9 @@ void add_study_command(CLI::App& app) {
   cmd->add_option("files", args->files, "Scenario CSV files (instead of --case)");
   add_whole_option(cmd, "--jobs", args->jobs, "Worker threads (default 0: every core)", 0, 4096);
   cmd->add_option("--db", args->db, "Store the rows in this SQLite file as they finish (needed for --resume)");
-  cmd->add_option("--csv", args->csv, "Write the rows to this CSV file (one per set and case)");
+  cmd->add_option("--csv", args->csv,
+                  "Write the rows to this CSV file (one per set and case); - writes them to stdout and the analysis to "
+                  "stderr");
   cmd->add_flag("--json", args->json, "Print the analysis as JSON");
   cmd->add_option("--shard", args->shard, "Run the I-th of N deterministic slices (1 <= I <= N), e.g. 2/8");
   cmd->add_flag("--resume", args->resume, "Continue the study in --db: reuse its rows, compute the rest");
@@ -491,7 +546,7 @@ void add_study_command(CLI::App& app) {
                                               "every case, the Pareto front)");
   r->add_option("file", report->file, "Study file (--db of alc study, or alc study merge --out)")->required();
   r->add_flag("--json", report->json, "Print the analysis as JSON");
-  r->add_option("--csv", report->csv, "Write the rows to this CSV file (as alc study --csv)");
+  r->add_option("--csv", report->csv, "Write the rows to this CSV file (as alc study --csv; - for stdout)");
   r->add_option("--svg", report->svg,
                  "Write SVG figures into this directory (created if missing): pareto-<case>.svg per case, "
                  "heatmap-p99-cp<H>.svg and heatmap-pd-cp<H>.svg (docs/study.md, Figures)");

@@ -89,8 +89,9 @@ int run(int argc, char** argv) {
     // CLI11 prints --help / --version (code 0) to stdout and its message to stderr. Any other
     // parse error (unknown option, bad number, missing or excluded option...) is a usage error:
     // exit 2 as the README says, not CLI11's own codes (104, 106, ...).
-    const int code = app.exit(e);
-    if (code == 0) return 0;
+    if (e.get_exit_code() == 0) return app.exit(e);
+    // Said as every other error is ("alc: error: ..."), not as CLI11's bare message.
+    std::cerr << "alc: error: " << e.what() << "\nRun with --help for more information.\n";
     return dynamic_cast<const CLI::RuntimeError*>(&e) != nullptr ? 1 : 2;
   } catch (const alc::cli::ExitStatus& e) {
     std::cerr << "alc: " << e.what() << "\n";

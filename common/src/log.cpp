@@ -1,11 +1,13 @@
 #include "common/log.hpp"
 
+#include <spdlog/sinks/base_sink.h>
 #include <spdlog/sinks/dist_sink.h>
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_sinks.h>
 
 #include <filesystem>
 #include <map>
+#include <unordered_set>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
@@ -18,10 +20,51 @@ namespace {
 
 constexpr const char* kPattern = "[%Y-%m-%d %H:%M:%S.%e] [%l] [%n] %v";
 
-// Every component logger writes to one distributing sink; configure() swaps what it feeds.
+// Passes a message on to the next sink unless, while on, its text was passed before (distinct_only).
+class DistinctSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  explicit DistinctSink(std::shared_ptr<spdlog::sinks::sink> next) : next_(std::move(next)) {}
+  void switch_to(bool on) {
+    const std::lock_guard lock(mutex_);
+    on_ = on;
+    seen_.clear();
+    withheld_ = 0;
+  }
+  std::size_t withheld() {
+    const std::lock_guard lock(mutex_);
+    return withheld_;
+  }
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    if (on_) {
+      std::string text(msg.logger_name.data(), msg.logger_name.size());
+      text += '\x1f';
+      text += static_cast<char>('0' + static_cast<int>(msg.level));
+      text.append(msg.payload.data(), msg.payload.size());
+      if (seen_.count(text)) {
+        ++withheld_;
+        return;
+      }
+      if (seen_.size() < kDistinctTexts) seen_.insert(std::move(text));
+    }
+    next_->log(msg);
+  }
+  void flush_() override { next_->flush(); }
+
+ private:
+  std::shared_ptr<spdlog::sinks::sink> next_;
+  bool on_ = false;
+  std::unordered_set<std::string> seen_;
+  std::size_t withheld_ = 0;
+};
+
+// Every component logger writes through the distinct filter to one distributing sink; configure()
+// swaps what that feeds.
 struct Registry {
   std::mutex mutex;
   std::shared_ptr<spdlog::sinks::dist_sink_mt> sink = std::make_shared<spdlog::sinks::dist_sink_mt>();
+  std::shared_ptr<DistinctSink> filter = std::make_shared<DistinctSink>(sink);
   spdlog::level::level_enum level = spdlog::level::warn;
   std::map<std::string, std::shared_ptr<spdlog::logger>, std::less<>> loggers;
 
@@ -71,12 +114,16 @@ std::shared_ptr<spdlog::logger> get(const std::string& component) {
   Registry& r = registry();
   const std::lock_guard lock(r.mutex);
   if (const auto it = r.loggers.find(component); it != r.loggers.end()) return it->second;
-  auto logger = std::make_shared<spdlog::logger>(component, r.sink);
+  auto logger = std::make_shared<spdlog::logger>(component, r.filter);
   logger->set_level(r.level);
   logger->flush_on(spdlog::level::trace);  // lines are rare: every one reaches the file at once
   r.loggers.emplace(component, logger);
   return logger;
 }
+
+void distinct_only(bool on) { registry().filter->switch_to(on); }
+
+std::size_t repeats_withheld() { return registry().filter->withheld(); }
 
 std::optional<spdlog::level::level_enum> parse_level(std::string_view text) {
   static const std::pair<std::string_view, spdlog::level::level_enum> kLevels[] = {

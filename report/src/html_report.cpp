@@ -527,6 +527,11 @@ void study_section(const std::filesystem::path& file, const storage::StudyHeader
                         " h (<code>alc study report --svg DIR --heatmap-cp H</code> draws another CP)."
                   : std::string()) +
        "</p>\n";
+  // As alc study report says it: the figures and optima of a partial file cover the rows present only.
+  if (a.rows < a.expected)
+    h += "<p class=\"study-partial\">PARTIAL: " + std::to_string(a.expected - a.rows) +
+         " rows are missing (a shard, or a run not finished): the figures and optima below cover the rows present "
+         "only.</p>\n";
   for (std::size_t ci = 0; ci < a.cases.size(); ++ci)
     if (const auto& ca = a.cases[ci]; ca.optimum)
       h += "<p>Eq. 8 optimum of case " + escape_xml(ca.name) + ": set " + std::to_string(ca.optimum->set) +
@@ -555,7 +560,7 @@ svg.alc-chart .hband{fill:#ffe8c2;opacity:.8}
 svg.alc-chart .marker{stroke-width:1}svg.alc-chart .marker-update{stroke:#2ca02c;opacity:.45}svg.alc-chart .marker-rejected{stroke:#999;stroke-dasharray:3 3}
 svg.alc-chart .marker-ticks{opacity:.9;stroke-dasharray:none}svg.alc-chart .marker-refused{stroke:#d62728;stroke-width:2}svg.alc-chart .marker-sent{stroke:#2ca02c;opacity:.7}
 svg.alc-chart .marker-undelivered{stroke:#ff7f0e;stroke-width:2.5}svg.alc-chart .marker-unsettled{stroke:#9467bd;stroke-width:2.5}
-p.nc-undelivered{background:#fff1e0;border-left:4px solid #ff7f0e;padding:4px 8px}
+p.nc-undelivered,p.study-partial{background:#fff1e0;border-left:4px solid #ff7f0e;padding:4px 8px}
 .legend i.marker-key{width:3px;height:12px}.legend i.marker-key-sent{background:#2ca02c}.legend i.marker-key-refused{background:#d62728}
 .legend i.marker-key-undelivered{background:#ff7f0e}.legend i.marker-key-unsettled{background:#9467bd}
 .legend i.marker-key-update{background:#2ca02c}.legend i.marker-key-rejected{background:#999}

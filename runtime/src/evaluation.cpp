@@ -124,17 +124,28 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
                                                 : std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = scenario_.output_names.size();
   // The indicators of each output over the evaluated rows where it was measured plausibly (a reading
-  // the controller set aside as a sensor fault is no error to judge it by), for predictions
-  // prediction(i, k) at evaluated row i.
+  // the controller set aside as a sensor fault is no error to judge it by); the readings beyond the
+  // plausible limit are counted and the first is named.
+  std::vector<char> judged(measured_.size(), 0);
+  for (std::size_t i = 0; i < time_s_.size(); ++i)
+    for (std::size_t k = 0; k < n; ++k) {
+      const double m = measured_[i * n + k];
+      if (std::isnan(m)) continue;  // not measured
+      if (std::abs(m) <= controller.parameters().plausible_limit(error_kind(scenario_.output_names[k]))) {
+        judged[i * n + k] = 1;
+      } else if (rep.implausible_measurements++ == 0) {
+        rep.first_implausible =
+            scenario_.output_names[k] + " at time_s " + common::shortest_text(time_s_[i]) + ": " + common::shortest_text(m);
+      }
+    }
+  // The indicators for predictions prediction(i, k) at evaluated row i.
   const auto indicators = [&](const auto& prediction) {
     std::vector<OutputIndicators> outs;
     for (std::size_t k = 0; k < n; ++k) {
-      const double limit = controller.parameters().plausible_limit(error_kind(scenario_.output_names[k]));
       std::vector<double> measured, predicted;
       for (std::size_t i = 0; i < time_s_.size(); ++i) {
-        const double m = measured_[i * n + k];
-        if (!(std::abs(m) <= limit)) continue;  // NaN: not measured
-        measured.push_back(m);
+        if (!judged[i * n + k]) continue;
+        measured.push_back(measured_[i * n + k]);
         predicted.push_back(prediction(i, k));
       }
       outs.push_back(evaluate_output(scenario_.output_names[k], measured, predicted));
@@ -142,15 +153,6 @@ ReplayReport Evaluation::report(const Controller& controller, std::size_t rows) 
     return outs;
   };
   rep.outputs = indicators([&](std::size_t i, std::size_t k) { return predicted_rows_[i * n + k]; });
-  for (std::size_t i = 0; i < time_s_.size(); ++i)
-    for (std::size_t k = 0; k < n; ++k) {
-      const double m = measured_[i * n + k];
-      if (std::isnan(m) || std::abs(m) <= controller.parameters().plausible_limit(error_kind(scenario_.output_names[k])))
-        continue;
-      if (rep.implausible_measurements++ == 0)
-        rep.first_implausible =
-            scenario_.output_names[k] + " at time_s " + common::shortest_text(time_s_[i]) + ": " + common::shortest_text(m);
-    }
   rep.baseline = indicators([&](std::size_t i, std::size_t k) { return baseline_rows_[i * n + k]; });
   for (std::size_t j = 0; j < baseline_kinds_.size(); ++j) {
     // Before the end of CP a model is not fitted yet and predicts 0, as the static baseline does.

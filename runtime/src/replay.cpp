@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/number_text.hpp"
+#include "probing/recorded_probes.hpp"
 #include "runtime/history_recorder.hpp"
 #include "runtime/report_json.hpp"
 #include "runtime/run_state.hpp"
@@ -87,15 +88,18 @@ Replay::~Replay() = default;
 std::string sparse_measurements(const scenarios::Scenario& scenario, const AlcParameters& parameters,
                                 const std::string& what) {
   if (scenario.time_s.empty()) return {};
-  // The median spacing of the measured rows in [from_s, until_s] (NaN with fewer than 3).
+  // The median spacing of the measured rows in [from_s, until_s] (NaN with fewer than 3): the rows a
+  // probe can take, as the recorded source finds them.
+  const probing::RecordedProbes probes(scenario.time_s, scenario.outputs);
   const auto median_spacing = [&](double from_s, double until_s) {
     std::vector<double> gaps;
     double last = std::numeric_limits<double>::quiet_NaN();
-    for (std::size_t r = 0; r < scenario.samples() && scenario.time_s[r] <= until_s; ++r) {
-      if (scenario.time_s[r] < from_s || !scenario.outputs.row(static_cast<Eigen::Index>(r)).array().isFinite().any())
-        continue;
-      if (!std::isnan(last)) gaps.push_back(scenario.time_s[r] - last);
-      last = scenario.time_s[r];
+    for (const std::size_t r : probes.measured_rows()) {
+      const double t = scenario.time_s[r];
+      if (t > until_s) break;
+      if (t < from_s) continue;
+      if (!std::isnan(last)) gaps.push_back(t - last);
+      last = t;
     }
     if (gaps.size() < 2) return std::numeric_limits<double>::quiet_NaN();
     std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());

@@ -200,7 +200,7 @@ void print_analysis(std::ostream& os, const Analysis& a, const StudyInfo& info) 
       for (const Point& p : c.closest)
         os << "      " << params(p.set) << "  P99 " << fmt(p.p99_linear) << " µm, Pd " << fmt(p.pd) << " %\n";
     }
-    if (c.failed) os << "      (" << c.failed << " failed rows)\n";
+    if (c.failed) os << "      (" << c.failed << (c.failed == 1 ? " failed row)\n" : " failed rows)\n");
   }
   if (a.common.set) {
     os << "Best set on every case (Tab. 3 analog): " << params(*a.common.set) << ", mean Pd " << fmt(a.common.mean_pd)

@@ -73,6 +73,27 @@ std::vector<CaseInfo> case_infos(const std::vector<StudyCase>& cases) {
   return infos;
 }
 
+namespace {
+
+// Two stored cases are one: equal, or both files of one content (the path is how it was reached).
+bool same_case(const nlohmann::json& a, const nlohmann::json& b) {
+  if (a == b) return true;
+  const auto file = [](const nlohmann::json& c) { return c.at("source").get<std::string>().rfind("file ", 0) == 0; };
+  return file(a) && file(b) && a.at("content_hash") == b.at("content_hash");
+}
+
+}  // namespace
+
+std::vector<std::string> renamed_cases(const storage::StudyHeader& stored, const storage::StudyHeader& now) {
+  std::vector<std::string> renamed;
+  const auto a = nlohmann::json::parse(stored.cases_json);
+  const auto b = nlohmann::json::parse(now.cases_json);
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+    if (a[i] != b[i] && same_case(a[i], b[i]))
+      renamed.push_back(b[i].at("source").get<std::string>() + " -> " + a[i].at("source").get<std::string>());
+  return renamed;
+}
+
 std::string difference(const storage::StudyHeader& stored, const storage::StudyHeader& now) {
   if (stored.software_version != now.software_version)
     return "the program version differs: stored '" + stored.software_version + "', now '" + now.software_version + "'";
@@ -87,7 +108,7 @@ std::string difference(const storage::StudyHeader& stored, const storage::StudyH
       };
       if (i >= a.size()) return "the cases differ: now also " + describe(b[i]);
       if (i >= b.size()) return "the cases differ: stored also " + describe(a[i]);
-      if (a[i] != b[i]) return "the cases differ: stored " + describe(a[i]) + ", now " + describe(b[i]);
+      if (!same_case(a[i], b[i])) return "the cases differ: stored " + describe(a[i]) + ", now " + describe(b[i]);
     }
   }
   if (stored.shard != now.shard) return "the shard differs: stored " + stored.shard + ", now " + now.shard;

@@ -44,6 +44,7 @@ void check_usage_error(const std::string& args, const std::string& says) {
   CHECK(r.exit_code == 2);
   CHECK(r.out.empty());
   CHECK_THAT(r.err, Catch::Matchers::Contains(says));
+  CHECK_THAT(r.err, Catch::Matchers::StartsWith("alc: error: "));  // before: CLI11's bare "--table is required"
 }
 
 }  // namespace
@@ -88,7 +89,7 @@ TEST_CASE("alc nc --help describes its options") {
   check_help("nc --help", {"--dialect", "--machine", "--in", "--in-force", "--sink", "--spool-dir", "--port"});
 }
 
-TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message on stderr") {
+TEST_CASE("alc: a usage error found while parsing exits 2 with CLI11's message on stderr, as alc: error:") {
   // CLI11's own exit codes would be 106 (required), 109 (extras), 104 (conversion), 105
   // (validation), 107 (argument mismatch) and 108 (excludes).
   check_usage_error("", "A subcommand is required");

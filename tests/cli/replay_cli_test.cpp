@@ -289,7 +289,7 @@ TEST_CASE("an empty option value is refused by every command, naming the option"
     CHECK(r.out.empty());
   }
   const Run named = alc("replay --case A --db ''");
-  CHECK_THAT(named.err, Catch::Matchers::StartsWith("--db: the value is empty"));
+  CHECK_THAT(named.err, Catch::Matchers::StartsWith("alc: error: --db: the value is empty"));
 }
 
 TEST_CASE("alc replay: usage errors name the option and value") {
@@ -412,6 +412,37 @@ TEST_CASE("alc replay: samples set aside are counted at the end and the first 10
                              Catch::Matchers::Contains("; the first: sample 12: ") &&
                              !Catch::Matchers::Contains("fits were rejected") &&
                              !Catch::Matchers::Contains("1428 of 1440 samples were set aside; the first"));
+}
+
+TEST_CASE("alc replay: a sparsely measured recording is told once, when it replays, not beside a usage error") {
+  // A day at 5 min, the error measured every hour: CP gets fewer probes than its schedule.
+  const fs::path file = work_dir() / "hourly.csv";
+  {
+    std::ofstream f(file);
+    f << "time_s,T_ENV,E_X0C\n";
+    for (int k = 0; k < 24 * 12; ++k)
+      f << k * 300 << "," << 20.0 + 3.0 * std::sin(k / 40.0) << ","
+        << (k % 12 == 0 ? std::to_string(2.0 * std::sin(k / 40.0)) : "") << "\n";
+  }
+  const auto count = [](const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  const std::string told = "hourly.csv is measured more sparsely than the schedule asks";
+  // Before: the warning came first, then the usage error that refused the run.
+  const Run refused = alc("replay \"" + file.string() + "\" --cp 6 --stop-at 5");
+  CHECK(refused.exit_code == 2);
+  CHECK_THAT(refused.err, Catch::Matchers::Contains("--stop-at and --resume need --db") && !Catch::Matchers::Contains(told));
+  const fs::path db = work_dir() / "hourly.sqlite";
+  fs::remove(db);
+  const Run part = alc("replay \"" + file.string() + "\" --cp 6 --db \"" + db.string() + "\" --stop-at 5");
+  CHECK(part.exit_code == 0);
+  CHECK(count(part.err, told) == 1);
+  CHECK_THAT(part.err, Catch::Matchers::Contains("in CP every 60 min (median)"));
+  const Run rest = alc("replay \"" + file.string() + "\" --cp 6 --db \"" + db.string() + "\" --resume");
+  CHECK(rest.exit_code == 0);
+  CHECK(count(rest.err, told) == 1);
 }
 
 TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {

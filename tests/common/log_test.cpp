@@ -123,3 +123,37 @@ TEST_CASE("log: a file in a directory that does not exist is refused, naming it,
   alc::log::get("cli")->info("still here");
   CHECK(slurp(good).find("[cli] still here") != std::string::npos);
 }
+
+TEST_CASE("log: distinct_only writes each text once and counts the repeats; off, repeats are written again") {
+  const ResetLog reset;
+  struct Off {
+    ~Off() { alc::log::distinct_only(false); }
+  } off;
+  const fs::path file = scratch("distinct.log");
+  alc::log::configure(to_file(file, spdlog::level::info));
+  const auto count = [&](const std::string& what) {
+    const std::string text = slurp(file);
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  alc::log::distinct_only(true);
+  for (int i = 0; i < 3; ++i) alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 20.5);
+  alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 21.5);  // another text
+  alc::log::get("storage")->warn("E_X0C = 20.5 is beyond the plausible limit");     // another component
+  alc::log::get("runtime")->info("E_X0C = 20.5 is beyond the plausible limit");     // another level
+  CHECK(count("[warning] [runtime] E_X0C = 20.5 is beyond") == 1);
+  CHECK(count("[runtime] E_X0C = 21.5 is beyond") == 1);
+  CHECK(count("[warning] [storage] E_X0C = 20.5 is beyond") == 1);
+  CHECK(count("[info] [runtime] E_X0C = 20.5 is beyond") == 1);
+  CHECK(alc::log::repeats_withheld() == 2);
+  // A line below the level is not written and not counted as a repeat.
+  alc::log::get("runtime")->debug("below");
+  alc::log::get("runtime")->debug("below");
+  CHECK(alc::log::repeats_withheld() == 2);
+  alc::log::distinct_only(false);
+  CHECK(alc::log::repeats_withheld() == 0);
+  alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 20.5);
+  alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 20.5);
+  CHECK(count("[warning] [runtime] E_X0C = 20.5 is beyond") == 3);
+}

@@ -244,6 +244,16 @@ TEST_CASE("report of a study file: the study's Pareto front of each case and its
     CHECK(html.find(text.substr(text.find("<svg"))) != std::string::npos);
   }
   CHECK(files == 3);
+  CHECK(html.find("PARTIAL") == std::string::npos);
+  // A file with rows missing (a shard, an unfinished run) says so, as alc study report does (before: only
+  // "3 of 4 rows present", its optima unmarked).
+  const auto partial = dir / "partial.sqlite";
+  std::filesystem::copy_file(db, partial);
+  sqlite3* handle = nullptr;
+  REQUIRE(sqlite3_open(partial.c_str(), &handle) == SQLITE_OK);
+  CHECK(sqlite3_exec(handle, "DELETE FROM study_rows WHERE set_index = 0", nullptr, nullptr, nullptr) == SQLITE_OK);
+  sqlite3_close(handle);
+  CHECK_THAT(html_report(partial, {}), Catch::Contains("<p class=\"study-partial\">PARTIAL: 1 rows are missing"));
 }
 
 TEST_CASE("bytes that are not UTF-8 in the database or the file name are escaped, never copied raw into the page",

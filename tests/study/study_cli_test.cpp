@@ -10,6 +10,7 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <set>
 #include <thread>
 
 #include "../cli_support.hpp"
@@ -111,6 +112,45 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     // Not a terminal: a progress line at once, before any run, with the rows to come (then every 5 s).
     CHECK(res.err.rfind("study: " + left + "/20 runs, 0 runs/s, ETA -, 0 s in\n", 0) == 0);
     CHECK(slurp(csv3) == text);
+  }
+  SECTION("the same recordings reached by other paths resume the study under the stored names") {
+    // Before: "the cases differ: stored file a.csv (content hash X), now file ./a.csv (content hash X)", so a
+    // SLURM task resubmitted with the paths as typed could not resume.
+    const fs::path partial = dir() / "moved.sqlite", csv3 = dir() / "moved.csv", elsewhere = dir() / "elsewhere";
+    fs::remove(partial);
+    fs::copy_file(db, partial);
+    sql(partial, "DELETE FROM study_rows WHERE set_index % 2 = 1");
+    fs::create_directories(elsewhere);
+    for (const char c : {'A', 'B'})
+      fs::copy_file(short_case(c), elsewhere / short_case(c).filename(), fs::copy_options::overwrite_existing);
+    const auto res = run_alc("study --grid " + grid.string() + " " + (elsewhere / "a.csv").string() + " " +
+                                 (elsewhere / "b.csv").string() + " --db " + partial.string() + " --resume --csv " +
+                                 csv3.string(),
+                             "study_cli");
+    INFO(res.err);
+    REQUIRE(res.exit_code == 0);
+    CHECK_THAT(res.err, Catch::Contains("the same recording (content) as the study's case, continued under its stored "
+                                        "name (file " + (elsewhere / "a.csv").string() + " -> file " +
+                                        short_case('A').string() + ")"));
+    CHECK(slurp(csv3) == text);  // the stored names, the same rows
+    // Another content under a stored name is still another case.
+    REQUIRE(std::system(("sed -i '100s/,\\([0-9]\\)/,9\\1/' " + (elsewhere / "b.csv").string()).c_str()) == 0);
+    const auto other = run_alc("study --grid " + grid.string() + " " + (elsewhere / "a.csv").string() + " " +
+                                   (elsewhere / "b.csv").string() + " --db " + partial.string() + " --resume",
+                               "study_cli");
+    CHECK(other.exit_code == 2);
+    CHECK_THAT(other.err, Catch::Contains("the cases differ: stored file " + short_case('B').string()));
+  }
+  SECTION("--csv - writes the rows to stdout and the analysis to stderr; with --json it is refused") {
+    // Before: a file named '-'.
+    const auto res = run_alc("study report " + db.string() + " --csv -", "study_cli");
+    REQUIRE(res.exit_code == 0);
+    CHECK(res.out == text);
+    CHECK_THAT(res.err, Catch::Contains("Eq. 8"));
+    const auto both = run_alc("study report " + db.string() + " --csv - --json", "study_cli");
+    CHECK(both.exit_code == 2);
+    CHECK_THAT(both.err, Catch::Contains("--csv - and --json both write to stdout"));
+    CHECK_FALSE(fs::exists("-"));
   }
   SECTION("a row of a set the grid does not have: study report and report name it, db check lists it") {
     // Before: both reports crashed (SIGSEGV, exit 139) indexing the grid's sets by 999; db check said ok.
@@ -223,6 +263,35 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK_THAT(m.err, Catch::Contains("is not a shard of the study") && Catch::Contains("the grid differs"));
     CHECK_FALSE(fs::exists(bad));
   }
+}
+
+TEST_CASE("a study tells a sparsely measured recording once per case and each repeated warning of its runs once") {
+  // Case A cut to 48 h, every second minute kept: measured every 10 min in CP where the CP interval is 5.
+  const fs::path sparse = dir() / "a_2min.csv";
+  REQUIRE(std::system(("awk 'NR == 1 || NR % 2 == 0' " + short_case('A').string() + " > " + sparse.string()).c_str()) == 0);
+  // Two sets of CP 6.5 h (the CP interval 5 min) and one invalid (CP 0.05 h); a plausible limit of 5 um
+  // sets the same readings aside in every set.
+  const fs::path grid = write("sparse.toml", "cp = [0.05, 6.5]\ninterval = [2, 6]\n[fixed]\nplausible-lin = 5\n");
+  const auto r = run_alc("study --grid " + grid.string() + " " + sparse.string() + " --quiet", "study_cli");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const auto count = [&](const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = r.err.find(what); at != std::string::npos; at = r.err.find(what, at + 1)) ++n;
+    return n;
+  };
+  CHECK(count("is measured more sparsely than the schedule asks") == 1);
+  CHECK_THAT(r.err, Catch::Contains("file " + sparse.string() + " is measured more sparsely") &&
+                        Catch::Contains("in CP every 10 min (median) where the CP interval is 5 min") &&
+                        Catch::Contains("; 2 of the 4 sets are concerned"));
+  // Each text once (before: the same lines once per set), and the repeats counted.
+  const std::string beyond = "is beyond the plausible";
+  REQUIRE(count(beyond) > 0);
+  std::set<std::string> lines;
+  std::istringstream in(r.err);
+  for (std::string line; std::getline(in, line);)
+    if (line.find(beyond) != std::string::npos) CHECK(lines.insert(line.substr(line.find("] [") + 1)).second);
+  CHECK_THAT(r.err, Catch::Contains(" log line(s) of the runs repeated an earlier one and were not shown"));
 }
 
 TEST_CASE("bad study arguments are usage errors naming the value") {

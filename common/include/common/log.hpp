@@ -28,6 +28,15 @@ void configure(const Options& options);
 // The logger of one component, created on first use with the configured sinks; never null.
 std::shared_ptr<spdlog::logger> get(const std::string& component);
 
+// While on, a message whose text (component, level and message) was written before is not written
+// again, only counted: a study's thousands of runs would repeat their cases' warnings once per set.
+// Switching it forgets what was seen and the count. It remembers at most kDistinctTexts texts; new
+// texts beyond them are written, not remembered (memory stays bounded).
+inline constexpr std::size_t kDistinctTexts = 10000;
+void distinct_only(bool on);
+// Messages withheld as repeats since distinct_only(true).
+std::size_t repeats_withheld();
+
 // "trace","debug","info","warn","error","critical","off" -> level; nullopt otherwise.
 std::optional<spdlog::level::level_enum> parse_level(std::string_view text);
 

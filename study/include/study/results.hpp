@@ -34,8 +34,13 @@ struct StudyInfo {
 std::vector<CaseInfo> case_infos(const std::vector<StudyCase>& cases);
 
 // "" if `now` continues `stored` (same grid, cases, program version and shard), else what differs,
-// naming both values (a case: its name and content hash).
+// naming both values (a case: its name and content hash). A recording is its content: the same file
+// reached by another path (./a.csv, /data/a.csv: a SLURM task resubmitted with the paths as typed) is
+// the same case; renamed_cases says which, and the stored names stay the study's.
 std::string difference(const storage::StudyHeader& stored, const storage::StudyHeader& now);
+
+// The file cases of `now` that are a stored case reached by another path, as "now -> stored" texts.
+std::vector<std::string> renamed_cases(const storage::StudyHeader& stored, const storage::StudyHeader& now);
 
 // A row as a study file stores it: report_json is alc replay --json of the run.
 storage::StudyRowRecord record_of(const StudyRow& row);
