@@ -122,9 +122,9 @@ std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
     for (const std::string& f : a.files) {
       std::error_code ec;
       if (fs::is_directory(f, ec)) throw UsageError(f + ": is a directory, not a scenario CSV");
-      // A case is named by its file: the same file twice would be two cases of one name (and one row
-      // of each set counted twice in every mean).
-      // Named by the path as given, written plainly (./a.csv and a.csv are one name), as alc replay does.
+      // A case is named by its path as given, written plainly (./a.csv and a.csv are one name, as alc
+      // replay has it): the same file twice would be two cases of one name (and one row of each set
+      // counted twice in every mean).
       const std::string name = fs::path(f).lexically_normal().string();
       for (const auto& c : cases)
         if (c.name == name) throw UsageError(f + ": given twice (a case is named by its file)");
