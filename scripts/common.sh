@@ -70,5 +70,6 @@ build() {
 # build_fuzz: the fuzz configuration in build/fuzz (its own CMake configuration: clang, -DALC_FUZZ=ON;
 # only the libraries and the fuzz targets).
 build_fuzz() {
-  CC=clang CXX=clang++ build "$ALC_ROOT/build/fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DALC_FUZZ=ON
+  CC=clang CXX=clang++ build "$ALC_ROOT/build/fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DALC_FUZZ=ON
 }
