@@ -430,6 +430,7 @@ void run_merge(const MergeArgs& a) {
   std::map<std::pair<std::int64_t, std::int64_t>, std::string> owner;
   std::set<std::string> shard_names;
   for (const std::string& f : a.shards) {
+    if (std::error_code missing; !fs::exists(f, missing)) throw UsageError(f + ": no such file");
     const auto h = storage::StudyStore::header_of(f);
     if (!h) throw UsageError(f + ": holds no study");
     storage::StudyHeader as_all = *h;

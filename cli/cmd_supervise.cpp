@@ -41,11 +41,17 @@ void run_supervise(const std::string& file) {
   std::signal(SIGTERM, on_stop_signal);
   std::signal(SIGINT, on_stop_signal);
   try {
-    supervisor::run_service(config, g_stop, std::string("alc ") + ALC_VERSION);
-  } catch (const supervisor::ConfigError& e) {
-    throw UsageError(e.what());
-  } catch (const runtime::ResumeRefused& e) {
-    throw UsageError(std::string(e.what()) + " (finish that run or use another history.db)");
+    try {
+      supervisor::run_service(config, g_stop, std::string("alc ") + ALC_VERSION);
+    } catch (const supervisor::ConfigError& e) {
+      throw UsageError(e.what());
+    } catch (const runtime::ResumeRefused& e) {
+      throw UsageError(std::string(e.what()) + " (finish that run or use another history.db)");
+    }
+  } catch (const std::exception& e) {
+    // Why it stopped, also in [log] file (a service's stderr may reach no one); stderr gets it from main.
+    if (config.log.file) log::get("supervisor")->critical("stopped: {}", e.what());
+    throw;
   }
 }
 

@@ -212,22 +212,34 @@ RunState load_run_state(const std::filesystem::path& db, storage::RunId run, con
   RunState s = decode_run_state(payload);
   const storage::HistoryReader reader(db);
   const auto samples = reader.input_samples(run);
-  if (static_cast<std::int64_t>(samples.size()) != s.controller.samples)
-    throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores " + std::to_string(samples.size()) +
-                             " samples before its snapshot, which counts " + std::to_string(s.controller.samples));
+  // The samples of the learning history (from history_first_index to the snapshot's count) are all
+  // stored, one per index. Those before it may have been deleted (the supervisor's keep_days prunes
+  // them at snapshots, never one the learning holds), so they are not counted.
   const std::int64_t first = s.controller.history_first_index;
+  const std::int64_t count = s.controller.samples;
   const auto cols = static_cast<Eigen::Index>(inputs);
   std::vector<double> time_s;
-  InputMatrix matrix(static_cast<Eigen::Index>(samples.size()) - first, cols);
-  for (std::size_t k = static_cast<std::size_t>(first); k < samples.size(); ++k) {
-    const auto& rec = samples[k];
+  InputMatrix matrix(std::max<Eigen::Index>(0, static_cast<Eigen::Index>(count - first)), cols);
+  std::int64_t next = first;
+  for (const auto& rec : samples) {
+    if (rec.sample_index < first) continue;
+    if (rec.sample_index != next || next >= count)
+      throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores sample " +
+                               std::to_string(rec.sample_index) + " where its learning history (samples " +
+                               std::to_string(first) + " to " + std::to_string(count - 1) +
+                               " before its snapshot) needs sample " + std::to_string(next));
     if (static_cast<Eigen::Index>(rec.values.size()) != cols)
       throw std::runtime_error(db.string() + ": stored sample " + std::to_string(rec.sample_index) + " has " +
                                std::to_string(rec.values.size()) + " inputs");
     time_s.push_back(rec.time_s);
     for (Eigen::Index c = 0; c < cols; ++c)
       matrix(static_cast<Eigen::Index>(time_s.size()) - 1, c) = rec.values[static_cast<std::size_t>(c)];
+    ++next;
   }
+  if (next != count)
+    throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores " + std::to_string(next - first) +
+                             " samples of its learning history before its snapshot (samples " + std::to_string(first) +
+                             " to " + std::to_string(count - 1) + "), which needs " + std::to_string(count - first));
   restore_history(s.controller, std::move(time_s), std::move(matrix));
   return s;
 }

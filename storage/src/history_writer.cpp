@@ -1,10 +1,17 @@
 #include "storage/history_writer.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <thread>
 #include <unordered_map>
 
 #include "common/log.hpp"
@@ -39,9 +46,51 @@ std::string WriterOptions::validate() const {
   return {};
 }
 
+namespace {
+
+// A writer's claim on its file for its lifetime (flock; released by close() or by the process's end,
+// kill -9 included). SQLite's write lock lasts one transaction, and a supervisor commits every sample,
+// so a second writer (another alc supervise on the same history) would interleave its rows.
+struct WriterClaim {
+  int fd = -1;
+  WriterClaim() = default;
+  WriterClaim(const WriterClaim&) = delete;
+  WriterClaim& operator=(const WriterClaim&) = delete;
+  ~WriterClaim() { release(); }
+  // Waits up to timeout_ms for another writer to close the file, as SQLite waits for its lock.
+  void take(const std::filesystem::path& file, int timeout_ms) {
+    fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+      throw StorageError(StorageErrorKind::Io, file, std::string("cannot open it to claim it: ") + std::strerror(errno));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      const int error = errno;
+      if (error == EINTR) continue;
+      if (error == EWOULDBLOCK && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        continue;
+      }
+      release();
+      if (error == EWOULDBLOCK)
+        throw StorageError(StorageErrorKind::Locked, file,
+                           "another writer has this history open (one writer per file: a second alc supervise or "
+                           "alc replay --db on it?); gave up after the busy timeout of " + std::to_string(timeout_ms) +
+                               " ms");
+      throw StorageError(StorageErrorKind::Io, file, std::string("cannot claim it: ") + std::strerror(error));
+    }
+  }
+  void release() {
+    if (fd >= 0) ::close(fd);
+    fd = -1;
+  }
+};
+
+}  // namespace
+
 struct HistoryWriter::Impl {
   WriterOptions options;
   std::filesystem::path file;
+  WriterClaim claim;             // declared before the database: released after it is closed
   std::unique_ptr<Database> db;  // declared first: outlives the statements
   std::optional<Statement> insert_sample, insert_probe, insert_prediction, insert_model, insert_phase,
       insert_interval, insert_nc, insert_snapshot, insert_run, insert_channel, insert_indicators;
@@ -211,6 +260,7 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
       throw StorageError(StorageErrorKind::NotFound, path, "no history to resume: the file is empty");
   }
   impl_->db = detail::open_for_writing(path, options);
+  impl_->claim.take(path, options.busy_timeout_ms);
   impl_->prepare();
   alc::log::get("storage")->info("opened history {} for writing", path.string());
 }
@@ -501,6 +551,7 @@ void HistoryWriter::close() {
   impl_->insert_channel.reset();
   impl_->insert_indicators.reset();
   impl_->db.reset();
+  impl_->claim.release();
 }
 
 const std::filesystem::path& HistoryWriter::path() const { return impl_->file; }

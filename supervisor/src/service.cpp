@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include "common/log.hpp"
@@ -77,6 +78,9 @@ class MqttBus : public Bus {
       static_cast<MqttBus*>(self)->message(msg);
     });
     mosquitto_publish_callback_set(m_, [](mosquitto*, void* self, int) { --static_cast<MqttBus*>(self)->unacked_; });
+    mosquitto_subscribe_callback_set(m_, [](mosquitto*, void* self, int mid, int count, const int* granted) {
+      static_cast<MqttBus*>(self)->subscribed(mid, count, granted);
+    });
     // libmosquitto names what failed (a TLS certificate, ...) only in its log: keep the latest error.
     mosquitto_log_callback_set(m_, [](mosquitto*, void* self, int level, const char* text) {
       if ((level & MOSQ_LOG_ERR) && text) static_cast<MqttBus*>(self)->last_error_ = text;
@@ -124,8 +128,17 @@ class MqttBus : public Bus {
                           (c_.mqtt.username ? " (user '" + *c_.mqtt.username + "')" : std::string(" (anonymous)")));
     return online_;
   }
-  // One round of network I/O; false when the connection is gone.
-  bool loop(int timeout_ms) { return mosquitto_loop(m_, timeout_ms, 1) == MOSQ_ERR_SUCCESS && online_; }
+  // One round of network I/O; false when the connection is gone. Throws BrokerRefused when the broker
+  // refused a subscription (its ACL): the supervisor would wait for ever for messages that never come.
+  bool loop(int timeout_ms) {
+    const bool up = mosquitto_loop(m_, timeout_ms, 1) == MOSQ_ERR_SUCCESS && online_;
+    if (!refused_topic_.empty())
+      throw BrokerRefused("the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) +
+                          " refused the subscription to " + refused_topic_ + " (not authorized: its ACL" +
+                          (c_.mqtt.username ? " for user '" + *c_.mqtt.username + "'" : std::string(" for anonymous clients")) +
+                          " does not grant that topic to read)");
+    return up;
+  }
   // Until every QoS 1 publish is acknowledged, at most `seconds`.
   void flush(double seconds) {
     const double end = wall_now() + seconds;
@@ -153,11 +166,21 @@ class MqttBus : public Bus {
     online_ = true;
     ever_connected_ = true;
     unacked_ = 0;
+    subscriptions_.clear();
     for (const char* t : {"/sample", "/probe/result"}) {
       const std::string topic = c_.mqtt.prefix + t;
-      mosquitto_subscribe(m_, nullptr, topic.c_str(), 1);
+      int mid = 0;
+      if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = topic;
     }
     logger()->info("mqtt: connected to {}:{} as {}", c_.mqtt.host, c_.mqtt.port, c_.mqtt.client_id);
+  }
+  // The broker's answer to a subscription: 0x80 (MQTT 3.1.1) for a topic it refuses.
+  void subscribed(int mid, int count, const int* granted) {
+    for (int i = 0; i < count; ++i)
+      if (granted[i] == 0x80 && refused_topic_.empty()) {
+        const auto it = subscriptions_.find(mid);
+        refused_topic_ = it != subscriptions_.end() ? it->second : "a topic";
+      }
   }
   void message(const mosquitto_message* msg) {
     if (!s_ || !msg->topic) return;
@@ -175,6 +198,8 @@ class MqttBus : public Bus {
   Supervisor* s_ = nullptr;
   StatusModel* status_ = nullptr;
   std::string last_error_;
+  std::map<int, std::string> subscriptions_;  // message id -> topic, of this connection's subscriptions
+  std::string refused_topic_;                 // a subscription the broker refused
   bool ever_connected_ = false;
   bool first_ = true;
   bool online_ = false;

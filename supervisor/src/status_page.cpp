@@ -1,5 +1,7 @@
 #include "supervisor/status_page.hpp"
 
+#include <chrono>
+
 #include <httplib.h>
 
 #include <cmath>
@@ -211,10 +213,20 @@ StatusServer::StatusServer(const StatusConfig& config, const StatusModel& model)
   s.Delete(".*", refuse);
   s.Patch(".*", refuse);
   s.Options(".*", refuse);
+  // SO_REUSEADDR only (a restart binds again at once while old connections linger in TIME_WAIT), not
+  // cpp-httplib's default SO_REUSEPORT, with which a second supervisor bound the same port without a
+  // word and the kernel spread the requests over both: another machine's state, at random.
+  s.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, reinterpret_cast<void*>(&yes), sizeof(yes));
+  });
   if (!s.bind_to_port(config.host, config.port))
     throw std::runtime_error("status page: cannot listen on " + config.host + ":" + std::to_string(config.port) +
                              " (key status.listen)");
   impl_->thread = std::thread([this] { impl_->server.listen_after_bind(); });
+  // Until its thread listens: cpp-httplib's stop() does nothing before that, and a supervisor stopped
+  // at once (the broker refusing it) then waited for ever in the destructor's join.
+  for (int i = 0; i < 5000 && !impl_->server.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   log::get("supervisor")->info("status page on http://{}:{}/", config.host, config.port);
 }
 

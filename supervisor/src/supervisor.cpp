@@ -79,6 +79,11 @@ class Supervisor::Tap : public runtime::Observer {
       // What the offsets now in force cancel: the prediction of this moment, where an axis can.
       for (Eigen::Index i = 0; i < s_.compensation_.size(); ++i)
         s_.compensation_(i) = s_.cancellable_[static_cast<std::size_t>(i)] ? out.prediction(i) : 0.0;
+      // Of it, what the gated offsets cancel (a step toward the target, part of it). With a sink that
+      // delivers, on_nc_cycle does this after the delivery (the offsets may be rolled back); before, without
+      // one, the full prediction was published and learned with while the axis held one max_step of it.
+      if (!s_.link_ || !s_.link_->delivers())
+        s_.compensation_ = s_.error_space_->compensation(in_force, s_.compensation_);
     }
     for (const ControllerEvent& e : out.events) {
       Json j = {{"type", std::string(to_string(e.type))}, {"time_s", e.time_s}, {"reason", e.reason}};
@@ -137,12 +142,10 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
     std::error_code ec;
     if (!std::filesystem::is_directory(*config.nc.spool_dir, ec))
       throw ConfigError(config.file.string(), "nc.spool_dir", "\"" + config.nc.spool_dir->string() + "\"",
-                        "is not a directory (it is not created); before, the first offsets failed to be delivered");
+                        "is not a directory (it is not created)");
   }
-  if (config.nc.sink != "none" || config.nc.probe != "gateway") {
-    link_ = std::make_unique<NcLink>(config);
-    error_space_ = std::make_unique<ErrorSpace>(config.machine.chain, config.signals.outputs, cancellable_);
-  }
+  if (config.nc.sink != "none" || config.nc.probe != "gateway") link_ = std::make_unique<NcLink>(config);
+  error_space_ = std::make_unique<ErrorSpace>(config.machine.chain, config.signals.outputs, cancellable_);
   driver_.set_machine({config.machine.chain, {}});
   // The history's directory must be there: created, a typo in history.db would begin a new history
   // beside months of learning, without a word.
@@ -336,7 +339,8 @@ void Supervisor::on_wall_clock(double wall_s) {
   if (last_sample_wall_s_ == 0.0) last_sample_wall_s_ = wall_s;
   if (stale_ || wall_s - last_sample_wall_s_ < config_.signals.stale_after_s) return;
   stale_ = true;
-  logger()->warn("no sample for {} s: stale, offsets held", wall_s - last_sample_wall_s_);
+  logger()->warn("no sample for {} s: stale, offsets held",
+                 common::shortest_text(std::round((wall_s - last_sample_wall_s_) * 10.0) / 10.0));
   event({{"type", "Stale"},
          {"reason", "no sample for stale_after_s = " + common::shortest_text(config_.signals.stale_after_s) +
                         " s of wall-clock time: offsets held"}});
@@ -393,14 +397,15 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     }
     if (m.time_s < outstanding_->trigger_s)
       return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + common::shortest_text(m.time_s) +
-                               " s is before its request at " + common::shortest_text(outstanding_->trigger_s) + " s");
+                               " s is before its request at " + common::shortest_text(outstanding_->trigger_s) +
+                               " s (the request's requested_s)");
     // A result measured after the probe would have timed out is no answer to it (a time of 1e12 would
     // hold every later sample for ever, waiting for the machine time to reach it).
     if (m.time_s > outstanding_->asked_s + config_.signals.probe_timeout_s)
       return reject(topic, "probe " + std::to_string(m.id) + ": time_s = " + common::shortest_text(m.time_s) +
                                " s is after its timeout at " +
                                common::shortest_text(outstanding_->asked_s + config_.signals.probe_timeout_s) +
-                               " s (request + signals.probe_timeout_s)");
+                               " s (the request's timeout_s)");
     const std::int64_t s = seq >= 0 ? seq : inbox_->append(topic, payload);
     entry_seq_ = s;
     result_ = m;
@@ -512,8 +517,13 @@ void Supervisor::request_probe(double trigger_s) {
 
 void Supervisor::publish_request() {
   if (config_.nc.probe == "linuxcnc") return;  // the supervisor runs the probe cycle itself
+  // due_s is when the schedule wanted the probe; the result's time_s must lie in [requested_s, timeout_s]
+  // (a gateway sampling more sparsely than the probe interval, or a probe asked again after a timeout,
+  // has requested_s after due_s).
   publish("probe/request", Json{{"id", outstanding_->id},
                                 {"due_s", outstanding_->due_s},
+                                {"requested_s", outstanding_->trigger_s},
+                                {"timeout_s", outstanding_->asked_s + config_.signals.probe_timeout_s},
                                 {"phase", std::string(to_string(controller_.phase()))}}
                                .dump(),
           false);

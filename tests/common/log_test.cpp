@@ -124,7 +124,7 @@ TEST_CASE("log: a file in a directory that does not exist is refused, naming it,
   CHECK(slurp(good).find("[cli] still here") != std::string::npos);
 }
 
-TEST_CASE("log: distinct_only writes each text once and counts the repeats; off, repeats are written again") {
+TEST_CASE("log: distinct_only writes each text once and counts the repeats, and once off writes repeats again") {
   const ResetLog reset;
   struct Off {
     ~Off() { alc::log::distinct_only(false); }

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+
+#include <memory>
 #include <cstdio>
 #include <sstream>
 
@@ -435,6 +437,26 @@ TEST_CASE("a locked database gives a locked error after the busy timeout", "[sto
   // A reader is not blocked by a writer (WAL).
   CHECK(HistoryReader(file).runs().size() == 1);
   other.exec("ROLLBACK");
+  CHECK_NOTHROW(HistoryWriter(file, options));
+}
+
+TEST_CASE("a second writer on an open history waits for the first to close, then fails with Locked", "[storage]") {
+  // SQLite's write lock lasts one transaction; a supervisor commits every sample, so before, a second
+  // alc supervise on the same history opened it between two commits and both wrote (samples were lost).
+  ScratchDir dir;
+  const auto file = filled_history(dir, "claimed.sqlite", 5);
+  WriterOptions options;
+  options.busy_timeout_ms = 100;
+  auto first = std::make_unique<HistoryWriter>(file, options);
+  first->commit();  // no transaction open: SQLite's lock is free, the claim is not
+  const StorageError e = error_of([&] { HistoryWriter second(file, options); });
+  CHECK(e.kind == StorageErrorKind::Locked);
+  CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains("another writer has this history open") &&
+                           Catch::Contains("busy timeout of 100 ms"));
+  CHECK(HistoryReader(file).runs().size() == 1);  // readers are not kept out
+  first->close();                                 // released with the database
+  CHECK_NOTHROW(HistoryWriter(file, options));
+  first.reset();
   CHECK_NOTHROW(HistoryWriter(file, options));
 }
 

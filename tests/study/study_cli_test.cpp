@@ -262,6 +262,13 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK(m.exit_code == 2);
     CHECK_THAT(m.err, Catch::Contains("is not a shard of the study") && Catch::Contains("the grid differs"));
     CHECK_FALSE(fs::exists(bad));
+    // A shard that is not there is named so (before: "holds no study", as for a file of another kind).
+    m = run_alc("study merge --out " + bad.string() + " " + (dir() / "shard1.sqlite").string() + " " +
+                    (dir() / "no_such_shard.sqlite").string(),
+                "study_cli");
+    CHECK(m.exit_code == 2);
+    CHECK_THAT(m.err, Catch::Contains("no_such_shard.sqlite: no such file"));
+    CHECK_FALSE(fs::exists(dir() / "no_such_shard.sqlite"));
   }
 }
 

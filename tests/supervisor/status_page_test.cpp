@@ -175,6 +175,24 @@ TEST_CASE("the status page on 127.0.0.1 in a real browser: loads without console
   CHECK_FALSE(port_open(port));
 }
 
+TEST_CASE("a status port already in use is an error naming it, not a second listener beside the first") {
+  // Before: cpp-httplib's SO_REUSEPORT let a second supervisor bind the same port, and the kernel
+  // spread the requests over both (another machine's state, at random).
+  const supervisor::StatusModel model("m", {"E_X0C"}, 86400.0);
+  supervisor::StatusConfig config;
+  config.port = free_port();
+  const supervisor::StatusServer first(config, model);
+  CHECK_THROWS_WITH(supervisor::StatusServer(config, model),
+                    Catch::Contains("status page: cannot listen on 127.0.0.1:" + std::to_string(config.port)));
+  // A server stopped as soon as it is made (a supervisor the broker refuses at once) stops: before, a stop
+  // before its thread listened did nothing, and the join waited for ever (this test hung in the suite).
+  for (int i = 0; i < 50; ++i) {
+    supervisor::StatusConfig other;
+    other.port = free_port();
+    const supervisor::StatusServer brief(other, model);
+  }
+}
+
 TEST_CASE("without a status section in its config the supervisor listens on no port") {
   const SmallSupervisor sup("no-status");
   CHECK(listening(sup.pid).empty());

@@ -344,3 +344,28 @@ TEST_CASE("username and password file on a broker with an ACL and wrong credenti
   CHECK(read_text(dir / "supervisor.log").find("refused the connection") != std::string::npos);
   CHECK(read_text(dir / "supervisor.log").find("(user 'alc')") != std::string::npos);
 }
+
+TEST_CASE("a subscription the broker's ACL refuses is a clear error, not a supervisor waiting for ever") {
+  // A broker whose ACL (mosquitto's dynamic security) grants no subscription. Before: "connected", then
+  // nothing (MQTT 3.1.1 answers a refused subscription with 0x80 in the SUBACK, which nobody read).
+  MosquittoLib lib;
+  const fs::path dir = temp_dir("acl");
+  Broker broker(dir, BrokerOptions{false, false, std::nullopt, true});
+  write(dir / "s.toml", small_config(broker.port) + "[log]\nfile = \"alc.log\"\n");
+  pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
+  // Bounded: before, it ran on (the guard kills it).
+  int status = 0;
+  for (int i = 0; i < 600 && ::waitpid(pid, &status, WNOHANG) == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  REQUIRE(::kill(pid, 0) != 0);  // exited (and reaped)
+  pid = -1;
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 1);
+  const std::string log = read_text(dir / "supervisor.log");
+  CHECK_THAT(log, Catch::Contains("refused the subscription to alc/dmu-1/") &&
+                      Catch::Contains("not authorized: its ACL for anonymous clients"));
+  // Why it stopped is in the log file too (before: on stderr only, which a service may send nowhere).
+  CHECK_THAT(read_text(dir / "alc.log"), Catch::Contains("[critical] [supervisor] stopped: the broker") &&
+                                             Catch::Contains("refused the subscription to alc/dmu-1/"));
+}

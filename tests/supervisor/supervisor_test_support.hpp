@@ -112,6 +112,9 @@ struct BrokerOptions {
   bool auth = false;
   bool persistence = false;
   std::optional<std::array<fs::path, 3>> tls;  // CA, server certificate, server key
+  // Mosquitto's dynamic-security plugin denying every subscription (answered 0x80 in the SUBACK;
+  // an acl_file never refuses a subscription, it only withholds the messages).
+  bool refuse_subscriptions = false;
 };
 
 struct Broker {
@@ -136,6 +139,12 @@ struct Broker {
               (dir / "acl").string() + "\n";
     } else {
       conf += "allow_anonymous true\n";
+    }
+    if (o.refuse_subscriptions) {
+      write(dir / "dynsec.json", "{\"defaultACLAccess\": {\"publishClientSend\": true, \"publishClientReceive\": true, "
+                                 "\"subscribe\": false, \"unsubscribe\": true}, \"clients\": [], \"groups\": [], \"roles\": []}\n");
+      conf += "plugin /usr/lib/x86_64-linux-gnu/mosquitto_dynamic_security.so\nplugin_opt_config_file " +
+              (dir / "dynsec.json").string() + "\n";
     }
     write(dir / "mosquitto.conf", conf);
     start();

@@ -4,9 +4,11 @@
 // history's retention, which keeps a run of months bounded on disk.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <fstream>
 #include <optional>
 
+#include "common/number_text.hpp"
 #include "storage/history_reader.hpp"
 #include "supervisor/config.hpp"
 #include "supervisor/supervisor.hpp"
@@ -46,6 +48,41 @@ struct Rig {
 };
 
 }  // namespace
+
+TEST_CASE("supervisor: a probe request says from and until when a result is taken, not only when it was due") {
+  // Samples every 20 min, probes every 15 min in CP: a request goes out at the first sample after its due
+  // time. Before, the payload held due_s alone, and a gateway stamping its result with it was rejected
+  // ("before its request") every time, so CP never got a model.
+  Rig rig("request-times", 3.0);
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  std::int64_t answered = 0;
+  int checked = 0;
+  for (std::size_t row = 0; row < rig.s.samples(); row += 20) {
+    sup.on_message("sample", rig.sample(row), 0.0);
+    const Json request = rig.bus.last("probe/request");
+    if (request.is_null() || request["id"].get<std::int64_t>() == answered) continue;
+    answered = request["id"].get<std::int64_t>();
+    const double due = request["due_s"].get<double>(), requested = request["requested_s"].get<double>();
+    CHECK(requested == rig.s.time_s[row]);
+    CHECK(request["timeout_s"].get<double>() == rig.s.time_s[row] + 1800.0);
+    if (requested > due) {
+      ++checked;
+      const auto rejected = sup.counts().rejected;
+      sup.on_message("probe/result", rig.result(answered, due), 0.0);
+      CHECK(sup.counts().rejected == rejected + 1);
+      CHECK_THAT(rig.bus.last_event("MessageRejected").value("reason", ""),
+                 Catch::Contains("is before its request at " + common::shortest_text(requested) +
+                                 " s (the request's requested_s)"));
+    }
+    const auto rejected = sup.counts().rejected;
+    sup.on_message("probe/result", rig.result(answered, requested), 0.0);
+    CHECK(sup.counts().rejected == rejected);
+  }
+  CHECK(checked >= 3);
+  CHECK(sup.counts().timeouts == 0);
+  CHECK(sup.controller().state().probe_cycles == answered);  // every result learned
+  CHECK(std::isfinite(sup.controller().state().cp_end_s));   // CP (2 h) ended
+}
 
 TEST_CASE("supervisor: a sample far ahead counts once the next confirms it, a typo like 1e15 is set aside") {
   Rig rig("time-jump", 2.0);
@@ -177,7 +214,7 @@ TEST_CASE("supervisor: samples far denser than their clock do not pile up withou
   CHECK_THAT(rig.bus.last_event("ProbeTimeout").value("reason", ""), Catch::Contains("samples were held"));
 }
 
-TEST_CASE("supervisor: keep_days deletes old input samples and predictions at snapshots, never what the learning holds") {
+TEST_CASE("supervisor: keep_days deletes old input samples and predictions at snapshots, never what the learning holds, and a restart resumes after it") {
   // A 2 h learning window: the controller holds 1.25 x 2 h + 100 h of warm-up samples at most; 3 h of
   // history kept, snapshots every 0.5 h; the whole of case A (192 h, 11,521 samples).
   Rig rig("retention", 200.0, "keep_days = 0.125\n", "window = 2\n");
@@ -207,11 +244,23 @@ TEST_CASE("supervisor: keep_days deletes old input samples and predictions at sn
     play(sup, 0, rows / 2);
     sup.stop();
   }
+  std::int64_t pruned_by = 0;
+  {
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");  // resumes: reads the samples it holds back
+    play(sup, rows / 2, rows * 3 / 4);
+    sup.stop();
+    pruned_by = storage::HistoryReader(db).input_samples(1).front().sample_index;
+  }
+  // A restart after samples were deleted (before: "run 1 stores 7504 samples before its snapshot, which
+  // counts 11475", exit 1 for ever, from day keep_days on).
+  REQUIRE(pruned_by > 0);
   std::int64_t first_kept = 0;
   double held_from_s = 0.0;
   {
-    supervisor::Supervisor sup(rig.config, rig.bus, "test");  // resumes: reads the samples it holds back
-    play(sup, rows / 2, rows);
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");
+    CHECK(sup.controller().state().samples == static_cast<std::int64_t>(rows * 3 / 4));
+    play(sup, rows * 3 / 4, rows);
+    CHECK(sup.controller().state().samples == static_cast<std::int64_t>(rows));
     first_kept = sup.controller().state().history_first_index;
     held_from_s = sup.controller().state().history.time_s.front();
     sup.stop();
@@ -287,6 +336,12 @@ TEST_CASE("supervisor: samples far denser than a minute move the NC offsets no f
   const double t0 = rig.s.time_s[row - 1];
   INFO("first step x " << x0 << " mm at t = " << t0 << " s");
   REQUIRE(std::abs(x0) == Approx(0.0002).margin(1e-12));  // a whole first step: the budget of X is spent
+  {
+    // The compensation published, which a probe is learned with, is what the offsets in force cancel:
+    // before, without a sink, the whole prediction while X held one max_step of it.
+    const Json offsets = rig.bus.last("offsets");
+    CHECK(std::abs(offsets["compensation"]["E_X0C"].get<double>() - offsets["prediction"]["E_X0C"].get<double>()) > 0.1);
+  }
   // The next minute as 600 samples 0.1 s apart, then the recording's own samples a minute apart.
   Json dense = Json::parse(rig.sample(row - 1));
   double x_prev = x0, t_prev = t0, moved_in_minute = 0.0;
