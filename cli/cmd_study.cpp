@@ -347,7 +347,7 @@ void run_study_command(const StudyArgs& a) {
         log::get("study")->warn("{}: the same recording (content) as the study's case, continued under its stored name ({})",
                                 a.db, r);
       now.cases_json = stored->cases_json;
-      info.cases = study::StudyInfo::of(*stored, a.db).cases;
+      info.cases = study::cases_of(stored->cases_json);  // the grid is the same: not expanded again
       rows = storage::StudyStore::rows_of(a.db);
     }
     store = std::make_unique<storage::StudyStore>(

@@ -47,14 +47,20 @@ storage::StudyHeader StudyInfo::header() const {
   return h;
 }
 
+std::vector<CaseInfo> cases_of(const std::string& cases_json) {
+  std::vector<CaseInfo> cases;
+  for (const auto& c : nlohmann::json::parse(cases_json))
+    cases.push_back({c.at("name").get<std::string>(), c.at("source").get<std::string>(),
+                     c.at("content_hash").get<std::string>()});
+  return cases;
+}
+
 StudyInfo StudyInfo::of(const storage::StudyHeader& h, const std::string& file) {
   StudyInfo info;
   try {
     info.grid = Grid::from_canonical(nlohmann::json::parse(h.grid_json), "stored grid");
     info.sets = info.grid.sets();
-    for (const auto& c : nlohmann::json::parse(h.cases_json))
-      info.cases.push_back({c.at("name").get<std::string>(), c.at("source").get<std::string>(),
-                            c.at("content_hash").get<std::string>()});
+    info.cases = cases_of(h.cases_json);
   } catch (const nlohmann::json::exception& e) {
     throw std::runtime_error(file + ": the study's stored grid or cases cannot be read (" + e.what() + ")");
   }

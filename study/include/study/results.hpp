@@ -32,6 +32,8 @@ struct StudyInfo {
 
 // The cases of a study as its header names them.
 std::vector<CaseInfo> case_infos(const std::vector<StudyCase>& cases);
+// The cases of a stored header's cases_json (throws nlohmann::json::exception on a malformed one).
+std::vector<CaseInfo> cases_of(const std::string& cases_json);
 
 // "" if `now` continues `stored` (same grid, cases, program version and shard), else what differs,
 // naming both values (a case: its name and content hash). A recording is its content: the same file
