@@ -32,6 +32,13 @@ std::string password_of(const SupervisorConfig& c) {
 }
 
 // libmosquitto, driven from this thread (mosquitto_loop): callbacks run inside loop().
+//
+// Acknowledged after the journal: libmosquitto answers a QoS 1 PUBLISH with its PUBACK before it calls
+// on_message, and without threaded mode it writes that PUBACK to the socket at once, so a kill -9
+// between it and the inbox commit lost the message (the broker had it acknowledged). In threaded mode
+// (mosquitto_threaded_set; no thread is started, this one still drives every loop) a packet is only
+// queued and written by the next mosquitto_loop, which runs after the callback has committed the
+// message to the inbox: a kill before that leaves it unacknowledged and the broker sends it again.
 class MqttBus : public Bus {
  public:
   MqttBus(const SupervisorConfig& c, const std::string& offline) : c_(c) {
@@ -62,6 +69,7 @@ class MqttBus : public Bus {
   void configure(const std::string& offline, const std::string& pw) {
     const SupervisorConfig& c = c_;
     mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    check(mosquitto_threaded_set(m_, true), "threaded_set");  // see the class comment
     if (c.mqtt.username)
       mosquitto_username_pw_set(m_, c.mqtt.username->c_str(), c.mqtt.password_file ? pw.c_str() : nullptr);
     if (c.mqtt.tls_ca_file)
@@ -145,7 +153,14 @@ class MqttBus : public Bus {
     while (unacked_ > 0 && wall_now() < end)
       if (mosquitto_loop(m_, 50, 1) != MOSQ_ERR_SUCCESS) break;
   }
-  void disconnect() { mosquitto_disconnect(m_); }
+  // Queues the DISCONNECT and writes it (threaded mode writes in mosquitto_loop only), so the broker
+  // sees a clean close and does not publish the will over the offline state just published.
+  void disconnect() {
+    if (mosquitto_disconnect(m_) != MOSQ_ERR_SUCCESS) return;
+    const double end = wall_now() + 2.0;
+    while (wall_now() < end && mosquitto_loop(m_, 50, 1) == MOSQ_ERR_SUCCESS) {
+    }
+  }
   bool online() const { return online_; }
 
  private:

@@ -1,6 +1,8 @@
 // The supervisor: its config and messages (no broker), and `alc supervise` on a real mosquitto
 // started by the test on a free port of 127.0.0.1 (stopped by its PID), with a twin gateway that plays
 // load case A through the broker and answers probe requests in closed loop.
+#include <sqlite3.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -254,6 +256,38 @@ TEST_CASE("case A through the broker equals the replay with every sample stored 
   }
   REQUIRE(ca.size() == cb.size());
   for (std::size_t k = 0; k < ca.size(); ++k) CHECK(ca[k].time_s == cb[k].time_s);
+}
+
+// libmosquitto acknowledges a QoS 1 message (PUBACK) before it hands it over; the supervisor's client
+// must not let that acknowledgement out before the message is in the inbox. Here the inbox commit is
+// made to wait (the test holds the inbox's write lock) while the supervisor is killed: the sample was
+// received but not committed, so the broker must send it again to the restarted supervisor. Before
+// (the PUBACK written at once), it was acknowledged and lost: a CI run lost one of case A's samples
+// to a kill -9 that way.
+TEST_CASE("a sample is acknowledged to the broker only once it is in the inbox: kill -9 while its commit waits loses nothing") {
+  SmallSupervisor sup("ack-after-commit");
+  Client& c = sup.c;
+  CHECK(c.state()["received"] == 1);
+  sqlite3* lock = nullptr;
+  REQUIRE(sqlite3_open((sup.dir / "h.sqlite.inbox").c_str(), &lock) == SQLITE_OK);
+  sqlite3_busy_timeout(lock, 10000);
+  REQUIRE(sqlite3_exec(lock, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_OK);
+  c.publish("sample", sample_at(60.0));
+  // The supervisor receives it and waits for the lock (its busy timeout is 5 s): nothing accepted.
+  c.until([] { return false; }, 1.5);
+  CHECK(c.state()["received"] == 1);
+  ::kill(sup.pid, SIGKILL);
+  CHECK(wait_exit(sup.pid) == 128 + SIGKILL);
+  REQUIRE(sqlite3_exec(lock, "ROLLBACK", nullptr, nullptr, nullptr) == SQLITE_OK);
+  sqlite3_close(lock);
+  REQUIRE(c.until([&] { return !c.state().value("online", true); }, 30));  // its will
+  sup.pid = start_supervisor(sup.dir);
+  // t = 0 s from the inbox, t = 60 s sent again by the broker (it was never acknowledged).
+  CHECK(c.until([&] { return c.state().value("online", false) && c.state().value("received", 0) == 2; }, 60));
+  ::kill(sup.pid, SIGTERM);
+  CHECK(wait_exit(sup.pid) == 0);
+  sup.pid = -1;
+  CHECK(c.state().value("rejected", -1) == 0);
 }
 
 TEST_CASE("bad messages are rejected with the reason and stale sensors hold the offsets and a missing probe times out and SIGTERM stops cleanly") {
