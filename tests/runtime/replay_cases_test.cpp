@@ -48,12 +48,12 @@ static void check_seed(std::uint64_t seed) {
     CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, true));
   }
 }
-TEST_CASE("load cases A-D with seed 1: linear P99 below 5 µm") { check_seed(1); }
-TEST_CASE("load cases A-D with seed 2: linear P99 below 5 µm") { check_seed(2); }
-TEST_CASE("load cases A-D with seed 3: linear P99 below 5 µm") { check_seed(3); }
-TEST_CASE("load cases A-D with seed 4: linear P99 below 5 µm") { check_seed(4); }
-TEST_CASE("load cases A-D with seed 5: linear P99 below 5 µm") { check_seed(5); }
-TEST_CASE("load cases A-D with seed 6: linear P99 below 5 µm") { check_seed(6); }
+TEST_CASE("load cases A-D with seed 1: linear P99 below 5 µm", "[sweep]") { check_seed(1); }
+TEST_CASE("load cases A-D with seed 2: linear P99 below 5 µm", "[sweep]") { check_seed(2); }
+TEST_CASE("load cases A-D with seed 3: linear P99 below 5 µm", "[sweep]") { check_seed(3); }
+TEST_CASE("load cases A-D with seed 4: linear P99 below 5 µm", "[sweep]") { check_seed(4); }
+TEST_CASE("load cases A-D with seed 5: linear P99 below 5 µm", "[sweep]") { check_seed(5); }
+TEST_CASE("load cases A-D with seed 6: linear P99 below 5 µm", "[sweep]") { check_seed(6); }
 
 TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s replay and compensation helps every output") {
   const auto simulated = simulate_case("S16");

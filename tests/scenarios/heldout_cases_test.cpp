@@ -215,7 +215,7 @@ TEST_CASE("held-out H5: without the guard compensation makes errors worse than n
   CHECK(with.mean_p99(alc::ErrorKind::Linear) < without.mean_p99(alc::ErrorKind::Linear));
 }
 
-TEST_CASE("held-out cases and S16 at seeds 1-10: per run ALC's mean P99 stays below uncompensated") {
+TEST_CASE("held-out cases and S16 at seeds 1-10: per run ALC's mean P99 stays below uncompensated", "[sweep]") {
   // The issue's "no case is made worse than uncompensated" per recording: the mean P99 of its linear
   // and of its angular errors with ALC against without (docs/adaptive.md: at most 0.81 of it over the
   // own seeds and seeds 1-80). Single outputs may still exceed theirs ("What remains" lists them).
