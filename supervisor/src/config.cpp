@@ -17,6 +17,8 @@ ConfigError::ConfigError(const std::string& file, const std::string& key, const 
                          const std::string& reason)
     : std::runtime_error(file + ": key '" + key + "'" + (value.empty() ? "" : ", value " + value) + ": " + reason) {}
 
+ConfigError::ConfigError(const std::string& message) : std::runtime_error(message) {}
+
 namespace {
 
 std::string node_text(const toml::node* node) { return common::toml_value_text(node); }
@@ -194,8 +196,7 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   try {
     root = toml::parse(toml_text, name);
   } catch (const toml::parse_error& e) {
-    throw ConfigError(name, "(syntax)", "",
-                      std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
+    throw ConfigError(common::toml_syntax_error(name, e));
   }
   SupervisorConfig c;
   c.file = file;

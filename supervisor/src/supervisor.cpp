@@ -349,7 +349,8 @@ void Supervisor::on_wall_clock(double wall_s) {
 
 // seq: the inbox entry being processed again (recovery), or -1 for a message just received.
 void Supervisor::process(const std::string& topic, const std::string& payload, std::int64_t seq) {
-  if (topic == "sample") {
+  // "sample/jump": a journaled sample that jumped ahead (recovery), held again as it was.
+  if (topic == "sample" || topic == "sample/jump") {
     auto parsed = parse_sample(payload, config_.signals.inputs);
     if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
     const SampleMessage& m = std::get<SampleMessage>(parsed);
@@ -358,25 +359,27 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     if (const std::string why = controller_.sample_problem(m.time_s, m.inputs); !why.empty()) return reject(topic, why);
     if (m.time_s == last_received_s_)
       return reject(topic, "duplicate sample: time_s = " + common::shortest_text(m.time_s) + " s was accepted already");
-    // A jump ahead by more than max_gap_s counts once the next sample confirms it (journaled entries,
-    // seq >= 0, were accepted already). The sample after a jump that does not confirm it sets it aside.
+    // A jump ahead by more than max_gap_s counts once the next sample confirms it (journaled "sample"
+    // entries, seq >= 0, were accepted already). The sample after a jump that does not confirm it sets
+    // it aside.
     const double gap = config_.signals.max_gap_s;
     if (jump_) {
-      auto [held, held_payload] = std::move(*jump_);
+      const Jump held = std::move(*jump_);
       jump_.reset();
-      if (m.time_s > held.time_s && m.time_s <= held.time_s + gap) {
-        accept_sample(held, held_payload, -1);
+      if (m.time_s > held.sample.time_s && m.time_s <= held.sample.time_s + gap) {
+        accept_sample(held.sample, held.payload, held.seq);  // its inbox entry is the one it came with
       } else {
-        reject(topic, "time jumps ahead to time_s = " + common::shortest_text(held.time_s) + " s from " +
-                          common::shortest_text(last_received_s_) + " s and the next sample (time_s = " +
-                          common::shortest_text(m.time_s) + " s) does not confirm it: set aside");
+        reject("sample", "time jumps ahead to time_s = " + common::shortest_text(held.sample.time_s) + " s from " +
+                             common::shortest_text(last_received_s_) + " s and the next sample (time_s = " +
+                             common::shortest_text(m.time_s) + " s) does not confirm it: set aside");
       }
     }
     if (m.time_s < last_received_s_)
       return reject(topic, "time goes backwards: time_s = " + common::shortest_text(m.time_s) + " s after " +
                                common::shortest_text(last_received_s_) + " s");
-    if (seq < 0 && std::isfinite(last_received_s_) && m.time_s > last_received_s_ + gap) {
-      jump_.emplace(m, payload);
+    if ((seq < 0 || topic == "sample/jump") && std::isfinite(last_received_s_) && m.time_s > last_received_s_ + gap) {
+      // Journaled now, so that a kill before the next sample loses nothing the broker was told is taken.
+      jump_ = Jump{m, payload, seq >= 0 ? seq : inbox_->append("sample/jump", payload)};
       event({{"type", "TimeJump"},
              {"time_s", m.time_s},
              {"reason", "time jumps ahead by " + common::shortest_text(m.time_s - last_received_s_) +

@@ -112,6 +112,41 @@ TEST_CASE("supervisor: a sample far ahead counts once the next confirms it, a ty
   CHECK(sup.counts().rejected == 1);  // the typo alone
 }
 
+TEST_CASE("supervisor: a sample far ahead still held when the process is killed is held again after the restart") {
+  // A real gap (the machine off for a day) whose first sample arrives, then kill -9 before the next:
+  // before, the held sample lived in memory only (the broker had it acknowledged), and after the
+  // restart the next sample was a jump of its own (a second TimeJump), the first one lost.
+  Rig rig("jump-kill", 2.0);
+  const double day = 86400.0;
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    RecordingBus bus;
+    supervisor::Supervisor sup(rig.config, bus, "test");
+    for (std::size_t row = 0; row < 40; ++row) sup.on_message("sample", rig.sample(row), 0.0);
+    sup.on_message("sample", rig.sample(40, day), 0.0);
+    ::_exit(bus.count("TimeJump") == 1 && sup.counts().received == 40 ? 0 : 3);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(child, &status, 0) == child);
+  REQUIRE(WIFEXITED(status));  // _exit: no destructor ran, nothing stopped, as after kill -9
+  REQUIRE(WEXITSTATUS(status) == 0);
+  {
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");
+    CHECK(sup.counts().received == 40);
+    sup.on_message("sample", rig.sample(41, day), 0.0);  // confirms the gap: both count
+    CHECK(sup.counts().received == 42);
+    CHECK(rig.bus.count("TimeJump") == 0);  // the restart's recovery is muted; no new jump
+    CHECK(sup.counts().rejected == 0);
+    sup.stop();
+  }
+  const storage::HistoryReader r(rig.dir / "h.sqlite");
+  const auto samples = r.input_samples(r.runs().back().run_id);
+  bool stored = false;
+  for (const auto& x : samples) stored = stored || x.time_s == rig.s.time_s[40] + day;
+  CHECK(stored);
+}
+
 TEST_CASE("supervisor: a probe never answered times out once, the next request is judged from when it is asked") {
   Rig rig("probe-skip", 8.0);
   supervisor::Supervisor sup(rig.config, rig.bus, "test");

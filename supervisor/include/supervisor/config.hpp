@@ -20,6 +20,7 @@ namespace alc::supervisor {
 class ConfigError : public std::runtime_error {
  public:
   ConfigError(const std::string& file, const std::string& key, const std::string& value, const std::string& reason);
+  explicit ConfigError(const std::string& message);  // a TOML syntax error: "file:line:column: ..."
 };
 
 struct MqttConfig {

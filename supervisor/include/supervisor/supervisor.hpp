@@ -100,7 +100,8 @@ class Supervisor {
   void publish_offsets(double time_s);
   void event(nlohmann::json e);
   void publish(const std::string& topic, const std::string& payload, bool retained);
-  bool idle() const { return !outstanding_ && held_.empty() && !result_; }
+  // Nothing waits: a snapshot may be taken and the inbox pruned up to next_seq_.
+  bool idle() const { return !outstanding_ && held_.empty() && !result_ && !jump_; }
   std::string extras_json() const;
   void restore_extras(const std::string& json, double snapshot_s);  // snapshot_s: the snapshot's time
   void begin_or_resume();
@@ -136,9 +137,15 @@ class Supervisor {
   std::deque<SampleMessage> held_;
   bool after_timeout_ = false;  // feeding the samples held for a probe that timed out (drain)
   double last_received_s_ = -kInf;         // [s] latest accepted sample (fed or held)
-  // A sample more than signals.max_gap_s ahead of the latest, with its payload: accepted when the next
-  // sample confirms the jump, set aside when it does not (not journaled until then).
-  std::optional<std::pair<SampleMessage, std::string>> jump_;
+  // A sample more than signals.max_gap_s ahead of the latest, with its payload and its inbox entry
+  // (kind "sample/jump", journaled when it comes: a restart holds it again): accepted when the next
+  // sample confirms the jump, set aside when it does not.
+  struct Jump {
+    SampleMessage sample;
+    std::string payload;
+    std::int64_t seq;
+  };
+  std::optional<Jump> jump_;
   std::int64_t next_id_ = 1;
   std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
   std::int64_t entry_seq_ = 0;             // inbox entry being processed
