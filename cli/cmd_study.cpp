@@ -419,8 +419,8 @@ void run_study_command(const StudyArgs& a) {
   print_analysis(study::analyse(info, rows, 5.0), info, a.json, a.csv);
   if (!a.json && !a.quiet)
     std::cerr << "study: " << rows.size() << " rows in " << common::shortest_text(std::round(progress.elapsed() * 10.0) / 10.0)
-              << " s (" << st.runs
-              << " controller runs, " << st.forks << " forks)\n";
+              << " s (" << st.runs << (st.runs == 1 ? " controller run, " : " controller runs, ") << st.forks
+              << (st.forks == 1 ? " fork)\n" : " forks)\n");
 }
 
 void run_merge(const MergeArgs& a) {
@@ -471,7 +471,8 @@ void run_merge(const MergeArgs& a) {
   if (fs::exists(a.out, ec)) throw UsageError("--out: " + a.out + " exists; merge writes a new file");
   storage::StudyStore out(a.out, *first, storage::StudyStore::Existing::Refuse);
   out.add(sorted(std::move(rows)));
-  std::cerr << "merged " << a.shards.size() << " shards into " << a.out << ": " << info.runs() << " rows\n";
+  std::cerr << "merged " << a.shards.size() << (a.shards.size() == 1 ? " shard" : " shards") << " into " << a.out << ": "
+            << info.runs() << (info.runs() == 1 ? " row\n" : " rows\n");
 }
 
 void run_report(const ReportArgs& a) {

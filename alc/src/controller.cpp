@@ -1,5 +1,7 @@
 #include "alc/controller.hpp"
 
+#include "common/number_text.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -686,11 +688,11 @@ std::string Controller::sample_problem(double time_s, const Eigen::VectorXd& inp
   const auto& h = state_.history;
   if (inputs.size() != static_cast<Eigen::Index>(h.input_names.size()))
     return "sample has " + std::to_string(inputs.size()) + " inputs, expected " + std::to_string(h.input_names.size());
-  if (!std::isfinite(time_s)) return "sample time " + std::to_string(time_s) + " is not finite";
+  if (!std::isfinite(time_s)) return "sample time " + common::shortest_text(time_s) + " is not finite";
   for (Eigen::Index i = 0; i < inputs.size(); ++i)
     if (!std::isfinite(inputs[i]))
-      return "sample at t = " + std::to_string(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
-             "' is " + std::to_string(inputs[i]);
+      return "sample at t = " + common::shortest_text(time_s) + " s: input '" + h.input_names[static_cast<std::size_t>(i)] +
+             "' is " + common::shortest_text(inputs[i]);
   for (Eigen::Index i = 0; i < inputs.size(); ++i) {
     const InputKind kind = input_kinds_[static_cast<std::size_t>(i)];
     const double limit = params_.plausible_limit(kind);
@@ -707,8 +709,8 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   if (std::string why = sample_problem(time_s, inputs); !why.empty()) return rejected(std::move(why));
   auto& h = state_.history;
   if (state_.started && !(time_s > state_.now_s))
-    return rejected("sample time " + std::to_string(time_s) + " s is not after the previous one (" +
-                    std::to_string(state_.now_s) + " s)");
+    return rejected("sample time " + common::shortest_text(time_s) + " s is not after the previous one (" +
+                    common::shortest_text(state_.now_s) + " s)");
   ControllerOutput out;
   if (!state_.started) {
     state_.started = true;
@@ -743,16 +745,16 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
     return rejected("probe compensation has " + std::to_string(probe.compensation.size()) + " values, expected " +
                     std::to_string(n));
   if (!(probe.time_s >= state_.now_s) || !std::isfinite(probe.time_s))
-    return rejected("probe at t = " + std::to_string(probe.time_s) + " s is before the latest sample (" +
-                    std::to_string(state_.now_s) + " s)");
+    return rejected("probe at t = " + common::shortest_text(probe.time_s) + " s is before the latest sample (" +
+                    common::shortest_text(state_.now_s) + " s)");
   for (Eigen::Index i = 0; i < n; ++i) {
     const auto k = static_cast<std::size_t>(i);
     if (std::isinf(probe.measured[i]))
-      return rejected("probe at t = " + std::to_string(probe.time_s) + " s: " + output_names_[k] + " is " +
-                      std::to_string(probe.measured[i]));
+      return rejected("probe at t = " + common::shortest_text(probe.time_s) + " s: " + output_names_[k] + " is " +
+                      common::shortest_text(probe.measured[i]));
     if (probe.compensation.size() == n && !std::isfinite(probe.compensation[i]))
-      return rejected("probe at t = " + std::to_string(probe.time_s) + " s: compensation of " + output_names_[k] +
-                      " is " + std::to_string(probe.compensation[i]));
+      return rejected("probe at t = " + common::shortest_text(probe.time_s) + " s: compensation of " + output_names_[k] +
+                      " is " + common::shortest_text(probe.compensation[i]));
   }
   // A sensor fault on one output must not spoil the others: its reading is set aside, the rest learned.
   ControllerOutput out;
@@ -850,7 +852,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
           e.time_s = t;
           e.from = e.to = state_.phase;
           e.value = state_.probes[breach].time_s;
-          e.reason = "the breach of the probe at t = " + std::to_string(state_.probes[breach].time_s) +
+          e.reason = "the breach of the probe at t = " + common::shortest_text(state_.probes[breach].time_s) +
                      " s is not confirmed by the first NG probe: set aside as an outlier";
           out.events.push_back(std::move(e));
           if (!breaches.empty()) {

@@ -22,4 +22,9 @@ std::string toml_value_text(const toml::node* node) {
   return o.str();
 }
 
+std::string toml_syntax_error(const std::string& file, const toml::parse_error& e) {
+  const auto& at = e.source().begin;
+  return file + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": " + std::string(e.description());
+}
+
 }  // namespace alc::common

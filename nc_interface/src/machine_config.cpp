@@ -195,8 +195,10 @@ void read_limits(Table t, SafetyLimits& l) {
 
 }  // namespace
 
-ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_, int line_)
-    : std::runtime_error(key_.empty() ? file_ + ": " + reason_  // the file itself, not a key
+ConfigError::ConfigError(std::string file_, std::string key_, std::string value_, const std::string& reason_, int line_,
+                         const std::string& message)
+    : std::runtime_error(!message.empty() ? message
+                         : key_.empty()   ? file_ + ": " + reason_  // the file itself, not a key
                                       : file_ + ": key '" + key_ + "'" +
                                             (line_ > 0 ? " (line " + std::to_string(line_) + ")" : std::string()) +
                                             ": " + reason_ + (value_.empty() ? std::string() : ": value '" + value_ + "'")),
@@ -207,9 +209,8 @@ MachineConfig parse_machine_config(const std::string& toml_text, const std::stri
   try {
     root = toml::parse(toml_text, source_name);
   } catch (const toml::parse_error& e) {
-    std::ostringstream where;
-    where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
-    throw ConfigError(source_name, "", "", std::string(e.description()) + " (" + where.str() + ")");
+    throw ConfigError(source_name, "", "", std::string(e.description()), static_cast<int>(e.source().begin.line),
+                      common::toml_syntax_error(source_name, e));
   }
   MachineConfig config;
   Table top(&root, "", source_name);

@@ -13,6 +13,9 @@ namespace alc::study {
 namespace {
 
 constexpr std::size_t kClosest = 5;
+// No row with indicators to judge (an empty shard, every run failed): said so, not "closest:" and nothing.
+constexpr const char* kNoRow = "no row with indicators (none stored, or every run failed)";
+constexpr const char* kNoRowOnEveryCase = "no set has a row with indicators on every case";
 
 // Seed 004's chosen set: its four values with every other option at replay's default (which are the
 // paper's). A grid whose [fixed] options change anything else (an ACL, the CP interval, the adaptive
@@ -144,7 +147,9 @@ nlohmann::json analysis_json(const Analysis& a, const StudyInfo& info) {
     nlohmann::json j = {{"rows", c.rows}, {"failed", c.failed}};
     j["optimum"] = c.optimum ? point_json(*c.optimum, info) : nlohmann::json(nullptr);
     if (!c.optimum) {
-      j["note"] = "no set keeps the mean linear P99 below " + fmt(a.limit_um, 1) + " µm; the closest sets instead";
+      j["note"] = c.closest.empty() ? std::string(kNoRow)
+                                    : "no set keeps the mean linear P99 below " + fmt(a.limit_um, 1) +
+                                          " µm; the closest sets instead";
       j["closest"] = nlohmann::json::array();
       for (const Point& p : c.closest) j["closest"].push_back(point_json(p, info));
     }
@@ -165,7 +170,9 @@ nlohmann::json analysis_json(const Analysis& a, const StudyInfo& info) {
       common["per_case"][info.cases[c].name] = point_json(a.common.per_case[c], info);
   } else {
     common = {{"set", nullptr},
-              {"note", "no set keeps the mean linear P99 below " + fmt(a.limit_um, 1) + " µm on every case"},
+              {"note", a.common.closest.empty()
+                           ? std::string(kNoRowOnEveryCase)
+                           : "no set keeps the mean linear P99 below " + fmt(a.limit_um, 1) + " µm on every case"},
               {"closest", nlohmann::json::array()}};
     for (const auto& n : a.common.closest) {
       nlohmann::json p = point_json(Point{n.set, n.worst_p99, 0, n.mean_pd, 0}, info);
@@ -195,6 +202,8 @@ void print_analysis(std::ostream& os, const Analysis& a, const StudyInfo& info) 
     if (c.optimum) {
       os << "  " << c.name << ": " << params(c.optimum->set) << "  P99 " << fmt(c.optimum->p99_linear) << " µm, "
          << fmt(c.optimum->p99_angular) << " µm/m, Pd " << fmt(c.optimum->pd) << " %, M " << c.optimum->M << "\n";
+    } else if (c.closest.empty()) {
+      os << "  " << c.name << ": " << kNoRow << "\n";
     } else {
       os << "  " << c.name << ": no set meets the limit; closest:\n";
       for (const Point& p : c.closest)
@@ -210,6 +219,8 @@ void print_analysis(std::ostream& os, const Analysis& a, const StudyInfo& info) 
       os << "  " << info.cases[c].name << ": P99 " << fmt(p.p99_linear) << " µm, " << fmt(p.p99_angular) << " µm/m, Pd "
          << fmt(p.pd) << " %, M " << p.M << "\n";
     }
+  } else if (a.common.closest.empty()) {
+    os << "Best set on every case: none, " << kNoRowOnEveryCase << "\n";
   } else {
     os << "No set keeps the mean linear P99 below " << fmt(a.limit_um, 1) << " µm on every case; closest:\n";
     for (const auto& n : a.common.closest)

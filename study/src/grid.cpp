@@ -171,9 +171,7 @@ Grid parse_grid(std::string_view text, const std::string& file) {
   try {
     root = toml::parse(text, file);
   } catch (const toml::parse_error& e) {
-    const auto& src = e.source();
-    throw GridError(file + ":" + std::to_string(src.begin.line) + ":" + std::to_string(src.begin.column) + ": " +
-                    std::string(e.description()));
+    throw GridError(common::toml_syntax_error(file, e));
   }
   Grid g;
   g.name = file;

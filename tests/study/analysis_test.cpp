@@ -79,6 +79,25 @@ TEST_CASE("when no set meets the limit the analysis says so and gives the closes
   CHECK(j["all_cases"]["set"].is_null());
 }
 
+TEST_CASE("a case without a row to judge (an empty shard, every run failed) says so instead of an empty 'closest:'") {
+  const StudyInfo info = info_with(2, 2);
+  storage::StudyRowRecord failed;
+  failed.set_index = 0;
+  failed.case_index = 1;
+  failed.ok = false;
+  const Analysis a = analyse(info, {row(0, 0, 4.0, 97.0), row(1, 0, 6.0, 98.0), failed}, 5.0);
+  std::ostringstream text;
+  print_analysis(text, a, info);
+  CHECK_THAT(text.str(), Catch::Contains("  A: interval=1") &&
+                             Catch::Contains("  B: no row with indicators (none stored, or every run failed)\n") &&
+                             Catch::Contains("Best set on every case: none, no set has a row with indicators on every case\n"));
+  CHECK(text.str().find("closest:") == std::string::npos);
+  const auto j = analysis_json(a, info);
+  CHECK(j["per_case"]["B"]["closest"].empty());
+  CHECK_THAT(j["per_case"]["B"]["note"].get<std::string>(), Catch::StartsWith("no row with indicators"));
+  CHECK(j["all_cases"]["note"] == "no set has a row with indicators on every case");
+}
+
 TEST_CASE("failed rows count but never win") {
   const StudyInfo info = info_with(2, 1);
   storage::StudyRowRecord failed;

@@ -226,7 +226,9 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     }
     const fs::path merged = dir() / "merged.sqlite", merged_csv = dir() / "merged.csv";
     fs::remove(merged);
-    REQUIRE(run_alc("study merge --out " + merged.string() + shard_files, "study_cli").exit_code == 0);
+    const auto merge = run_alc("study merge --out " + merged.string() + shard_files, "study_cli");
+    REQUIRE(merge.exit_code == 0);
+    CHECK_THAT(merge.err, Catch::Contains("merged 3 shards into " + merged.string() + ": "));
     REQUIRE(run_alc("study report " + merged.string() + " --csv " + merged_csv.string(), "study_cli").exit_code == 0);
     CHECK(slurp(merged_csv) == text);
     const fs::path bad = dir() / "bad.sqlite";

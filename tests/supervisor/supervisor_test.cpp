@@ -62,6 +62,8 @@ std::vector<double> rmse_of(const fs::path& db, const scenarios::Scenario& s, do
 TEST_CASE("config errors name the file and the key and the value") {
   CHECK(error_of(config_text()).empty());
   CHECK(error_of("[mqtt]\n").find("/tmp/s.toml: key 'machine_id': missing") != std::string::npos);
+  // A TOML syntax error: file:line:column (before: "key '(syntax)': ... at line 2", no column).
+  CHECK_THAT(error_of("machine_id = \"dmu-1\"\n[mqtt\n"), Catch::StartsWith("/tmp/s.toml:2:6: "));
   const std::string bad_cp = config_text() + "cp2 = 1\n";
   CHECK(error_of(bad_cp).find("key 'controller.cp2', value 1: not an option of alc replay") != std::string::npos);
   std::string neg = config_text();

@@ -9,4 +9,7 @@ namespace alc::common {
 
 std::string toml_value_text(const toml::node* node);
 
+// A TOML syntax error as every config reader reports it: "<file>:<line>:<column>: <toml++'s description>".
+std::string toml_syntax_error(const std::string& file, const toml::parse_error& e);
+
 }  // namespace alc::common

@@ -53,7 +53,9 @@ struct MachineConfig {
 // key has no value (not in the file, e.g. a default that conflicts with another key).
 class ConfigError : public std::runtime_error {
  public:
-  ConfigError(std::string file, std::string key, std::string value, const std::string& reason, int line = 0);
+  // `message`, when given, is the whole text (a TOML syntax error: "file:line:column: ...").
+  ConfigError(std::string file, std::string key, std::string value, const std::string& reason, int line = 0,
+              const std::string& message = "");
   std::string file;
   std::string key;    // dotted path, e.g. "limits.max_step.x_mm"
   std::string value;  // the offending value as TOML text
