@@ -149,21 +149,23 @@ class MqttBus : public Bus {
   }
   // Until every QoS 1 publish is acknowledged, at most `seconds`.
   void flush(double seconds) {
-    const double end = wall_now() + seconds;
-    while (unacked_ > 0 && wall_now() < end)
-      if (mosquitto_loop(m_, 50, 1) != MOSQ_ERR_SUCCESS) break;
+    pump(seconds, [this] { return unacked_ <= 0; });
   }
   // Queues the DISCONNECT and writes it (threaded mode writes in mosquitto_loop only), so the broker
   // sees a clean close and does not publish the will over the offline state just published.
   void disconnect() {
-    if (mosquitto_disconnect(m_) != MOSQ_ERR_SUCCESS) return;
-    const double end = wall_now() + 2.0;
-    while (wall_now() < end && mosquitto_loop(m_, 50, 1) == MOSQ_ERR_SUCCESS) {
-    }
+    if (mosquitto_disconnect(m_) == MOSQ_ERR_SUCCESS) pump(2.0, [] { return false; });  // until it is closed
   }
   bool online() const { return online_; }
 
  private:
+  // Network rounds until done(), the connection is gone, or `seconds` have passed.
+  template <class Done>
+  void pump(double seconds, Done done) {
+    const double end = wall_now() + seconds;
+    while (!done() && wall_now() < end && mosquitto_loop(m_, 50, 1) == MOSQ_ERR_SUCCESS) {
+    }
+  }
   [[noreturn]] void tls_failed(int rc) const {
     throw BrokerRefused("TLS to the broker " + c_.mqtt.host + ":" + std::to_string(c_.mqtt.port) + " failed (" +
                         (last_error_.empty() ? std::string(mosquitto_strerror(rc)) : last_error_) + ")" +
