@@ -67,9 +67,11 @@ build() {
   grep -A3 "warning:" "$dir/build.log" >&2 || true  # warnings stay visible
 }
 
-# build_fuzz: the fuzz configuration in build/fuzz (its own CMake configuration: clang, -DALC_FUZZ=ON;
-# only the libraries and the fuzz targets).
+# build_fuzz DIR LEVEL: the fuzz configuration (its own CMake configuration: clang, -DALC_FUZZ=ON; only
+# the libraries and the fuzz targets) in DIR at optimisation LEVEL. The short run of the test suite uses
+# build/fuzz at -O0: its 20,000 executions per target take 45 s there against 13 s at -O1, but the build
+# takes 5.8 min against 9.2 (2 cores). The long run (scripts/fuzz.sh --long) uses build/fuzz-long at -O1.
 build_fuzz() {
-  CC=clang CXX=clang++ build "$ALC_ROOT/build/fuzz" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DALC_FUZZ=ON
+  CC=clang CXX=clang++ build "$1" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=$2 -g1 -DNDEBUG" -DALC_FUZZ=ON
 }

@@ -26,6 +26,6 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
   ctest --no-tests=error --test-dir "$ALC_ROOT/build/test-asan" -LE sweep -j "$ALC_JOBS" --output-on-failure || status=1
 # The fuzzers: a short fixed number of executions per target (label fuzz); scripts/fuzz.sh --long
 # runs them for 10^6 each.
-build_fuzz
+build_fuzz "$ALC_ROOT/build/fuzz" -O0
 ctest --no-tests=error --test-dir "$ALC_ROOT/build/fuzz" -L fuzz -j "$ALC_JOBS" --output-on-failure || status=1
 exit $status
