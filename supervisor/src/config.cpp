@@ -265,15 +265,28 @@ SupervisorConfig parse_supervisor_config(const std::string& toml_text, const std
   if (top.table()->contains("status")) {
     Section st = top.sub("status");
     StatusConfig sc;
-    // "PORT", ":PORT" or "HOST:PORT" (IPv4 or a name; the default host is 127.0.0.1).
+    // "PORT", ":PORT", "HOST:PORT" (IPv4 or a name) or "[IPV6]:PORT"; the default host is 127.0.0.1.
     const std::string listen = st.required_text("listen");
-    const auto colon = listen.rfind(':');
-    const std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
-    const std::string port = colon == std::string::npos ? listen : listen.substr(colon + 1);
+    std::string host, port;
+    if (listen.front() == '[') {
+      const auto close = listen.find(']');
+      if (close == std::string::npos || close + 1 >= listen.size() || listen[close + 1] != ':')
+        st.fail("listen", "not \"[IPV6]:PORT\" (e.g. \"[::1]:8080\")");
+      host = listen.substr(1, close - 1);
+      port = listen.substr(close + 2);
+      if (host.empty() || host.find_first_not_of("0123456789abcdefABCDEF:.") != std::string::npos)
+        st.fail("listen", "not an IPv6 address in brackets (e.g. \"[::1]:8080\")");
+    } else {
+      const auto colon = listen.rfind(':');
+      host = colon == std::string::npos ? "" : listen.substr(0, colon);
+      port = colon == std::string::npos ? listen : listen.substr(colon + 1);
+      if (host.find(':') != std::string::npos)
+        st.fail("listen", "an IPv6 address is written in brackets before the port (e.g. \"[::1]:8080\")");
+    }
     if (!host.empty()) sc.host = host;
     if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
         std::stoi(port) < 1 || std::stoi(port) > 65535 || sc.host.find_first_of(" /[]") != std::string::npos)
-      st.fail("listen", "not \"PORT\" or \"HOST:PORT\" with a port from 1 to 65535");
+      st.fail("listen", "not \"PORT\", \"HOST:PORT\" or \"[IPV6]:PORT\" with a port from 1 to 65535");
     sc.port = std::stoi(port);
     if (auto v = st.number("window_h", 0.0)) sc.window_s = *v * 3600.0;
     st.no_unknown_keys();

@@ -220,14 +220,16 @@ StatusServer::StatusServer(const StatusConfig& config, const StatusModel& model)
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, reinterpret_cast<void*>(&yes), sizeof(yes));
   });
+  // An IPv6 address in brackets before the port, as in a URL and in the config's `listen`.
+  const std::string where = (config.host.find(':') == std::string::npos ? config.host : "[" + config.host + "]") +
+                            ":" + std::to_string(config.port);
   if (!s.bind_to_port(config.host, config.port))
-    throw std::runtime_error("status page: cannot listen on " + config.host + ":" + std::to_string(config.port) +
-                             " (key status.listen)");
+    throw std::runtime_error("status page: cannot listen on " + where + " (key status.listen)");
   impl_->thread = std::thread([this] { impl_->server.listen_after_bind(); });
   // Until its thread listens: cpp-httplib's stop() does nothing before that, and a supervisor stopped
   // at once (the broker refusing it) then waited for ever in the destructor's join.
   for (int i = 0; i < 5000 && !impl_->server.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  log::get("supervisor")->info("status page on http://{}:{}/", config.host, config.port);
+  log::get("supervisor")->info("status page on http://{}/", where);
 }
 
 StatusServer::~StatusServer() {

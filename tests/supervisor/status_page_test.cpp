@@ -175,6 +175,32 @@ TEST_CASE("the status page on 127.0.0.1 in a real browser: loads without console
   CHECK_FALSE(port_open(port));
 }
 
+TEST_CASE("the status page listens on an IPv6 address given in brackets: ::1 answers GET, 127.0.0.1 does not") {
+  const supervisor::StatusModel model("m", {"E_X0C"}, 86400.0);
+  supervisor::StatusConfig config;
+  config.host = "::1";
+  config.port = free_port();
+  const supervisor::StatusServer server(config, model);
+  const int s = ::socket(AF_INET6, SOCK_STREAM, 0);
+  sockaddr_in6 a{};
+  a.sin6_family = AF_INET6;
+  a.sin6_addr = in6addr_loopback;
+  a.sin6_port = htons(static_cast<std::uint16_t>(config.port));
+  REQUIRE(::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
+  const std::string request = "GET /state.json HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  ::send(s, request.data(), request.size(), MSG_NOSIGNAL);
+  std::string response;
+  char buf[4096];
+  for (ssize_t n; (n = ::recv(s, buf, sizeof buf, 0)) > 0;) response.append(buf, static_cast<std::size_t>(n));
+  ::close(s);
+  CHECK(response.rfind("HTTP/1.1 200 OK\r\n", 0) == 0);
+  CHECK_FALSE(port_open(config.port));  // 127.0.0.1: nothing listens there
+  // A second server on the same address names it as written in the config.
+  CHECK_THROWS_WITH(supervisor::StatusServer(config, model),
+                    Catch::Contains("status page: cannot listen on [::1]:" + std::to_string(config.port) +
+                                    " (key status.listen)"));
+}
+
 TEST_CASE("a status port already in use is an error naming it, not a second listener beside the first") {
   // Before: cpp-httplib's SO_REUSEPORT let a second supervisor bind the same port, and the kernel
   // spread the requests over both (another machine's state, at random).
@@ -212,7 +238,15 @@ TEST_CASE("the status section of the config: 127.0.0.1 unless another host is wr
   const auto d = parse("[status]\nlisten = \"0.0.0.0:9000\"\nwindow_h = 6\n");
   CHECK(d.status->host == "0.0.0.0");
   CHECK(d.status->window_s == 6 * 3600.0);
-  for (const std::string bad : {"\"\"", "\"abc\"", "\"127.0.0.1:0\"", "\"127.0.0.1:99999\"", "\"127.0.0.1:\"", "8080"}) {
+  // IPv6 in brackets, as in a URL; without them "::1:8080" would read as host "::1", port 8080 or as
+  // host "::1:8080" and no port: refused with the form to write.
+  const auto v6 = parse("[status]\nlisten = \"[::1]:8081\"\n");
+  CHECK(v6.status->host == "::1");
+  CHECK(v6.status->port == 8081);
+  CHECK(parse("[status]\nlisten = \"[fe80::1]:80\"\n").status->host == "fe80::1");
+  for (const std::string bad : {"\"\"", "\"abc\"", "\"127.0.0.1:0\"", "\"127.0.0.1:99999\"", "\"127.0.0.1:\"", "8080",
+                                "\"::1:8080\"", "\"[::1]\"", "\"[::1]8080\"", "\"[]:8080\"", "\"[::1:8080\"", "\"[::1]:\"",
+                                "\"[::1]:0\"", "\"[a b]:80\"", "\"[::1]:80:80\""}) {
     INFO(bad);
     try {
       parse("[status]\nlisten = " + bad + "\n");
@@ -221,5 +255,6 @@ TEST_CASE("the status section of the config: 127.0.0.1 unless another host is wr
       CHECK(std::string(e.what()).find("/tmp/s.toml: key 'status.listen', value " + bad) != std::string::npos);
     }
   }
+  CHECK_THROWS_WITH(parse("[status]\nlisten = \"::1:8080\"\n"), Catch::Contains("written in brackets before the port"));
   CHECK_THROWS_WITH(parse("[status]\nlisten = \"8080\"\nport = 1\n"), Catch::Contains("key 'status.port', value 1: unknown key"));
 }
