@@ -150,7 +150,10 @@ void write_rows_csv(std::ostream& os, const StudyInfo& info, const std::vector<s
       if (std::find(outputs.begin(), outputs.end(), name) == outputs.end()) outputs.push_back(name);
   }
   static const char* kPerOutput[] = {"PV", "RMSE", "P99", "SMAPE", "P99_uncompensated", "measurements"};
-  static const char* kRun[] = {"Pd", "M", "ng_phases", "updates", "rejected_fits", "cp_end_h", "duration_h"};
+  // rejected_samples: the input samples the controller set aside (a row stored before it was in the
+  // report leaves the cell empty).
+  static const char* kRun[] = {"Pd", "M", "ng_phases", "updates", "rejected_fits", "rejected_samples", "cp_end_h",
+                               "duration_h"};
   os << "set,case";
   for (const auto& [axis, _] : info.grid.axes) os << "," << csv_cell(axis);
   os << ",status,error";
@@ -173,7 +176,7 @@ void write_rows_csv(std::ostream& os, const StudyInfo& info, const std::vector<s
       os << "\n";
       continue;
     }
-    for (const char* f : kRun) os << "," << number_cell(j.at(f));
+    for (const char* f : kRun) os << "," << (j.contains(f) ? number_cell(j.at(f)) : std::string());
     const runtime::ReplayReport back = runtime::report_from_json(j);
     os << "," << number_cell(back.mean_p99(ErrorKind::Linear)) << "," << number_cell(back.mean_p99(ErrorKind::Angular))
        << "," << number_cell(back.mean_p99(ErrorKind::Linear, true)) << ","

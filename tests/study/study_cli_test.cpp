@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -74,7 +75,7 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
   std::istringstream lines(text);
   std::string header;
   std::getline(lines, header);
-  CHECK(header.rfind("set,case,cp,interval,ng-meas,status,error,Pd,M,ng_phases,updates,rejected_fits,cp_end_h,"
+  CHECK(header.rfind("set,case,cp,interval,ng-meas,status,error,Pd,M,ng_phases,updates,rejected_fits,rejected_samples,cp_end_h,"
                      "duration_h,P99_linear,P99_angular",
                      0) == 0);
   std::size_t rows = 0, errors = 0;
@@ -381,4 +382,44 @@ TEST_CASE("SIGINT stops a study cleanly: finished rows stay, --resume completes 
                   "study_cli")
               .exit_code == 0);
   CHECK(slurp(resumed) == slurp(whole));
+}
+
+TEST_CASE("the study's CSV counts each row's input samples set aside, as alc replay does on the same file and value") {
+  // Case A's first 48 h: temperatures up to 23.9 degC, so a plausible limit of 23.5 sets some aside.
+  const fs::path grid = write("plausible.toml", "plausible-temp = [1000, 23.5]\n");
+  const fs::path csv = dir() / "plausible.csv";
+  const auto r = run_alc("study --grid " + grid.string() + " " + short_case('A').string() + " --quiet --csv " + csv.string(),
+                         "study_cli");
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  std::istringstream lines(slurp(csv));
+  const auto cells = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::istringstream f(line);
+    for (std::string c; std::getline(f, c, ',');) out.push_back(c);
+    return out;
+  };
+  std::string line;
+  std::getline(lines, line);
+  const auto header = cells(line);
+  const auto col = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    REQUIRE(it != header.end());
+    return static_cast<std::size_t>(it - header.begin());
+  };
+  const std::size_t limit = col("plausible-temp"), rejected = col("rejected_samples"), status = col("status");
+  std::map<std::string, std::string> per_limit;
+  while (std::getline(lines, line)) {
+    const auto c = cells(line);
+    REQUIRE(c.size() > rejected);
+    CHECK(c[status] == "ok");
+    per_limit[c[limit]] = c[rejected];
+  }
+  REQUIRE(per_limit.size() == 2);
+  CHECK(per_limit["1000"] == "0");
+  const auto replay = run_alc("replay " + short_case('A').string() + " --plausible-temp 23.5 --json", "study_cli");
+  REQUIRE(replay.exit_code == 0);
+  const auto set_aside = nlohmann::json::parse(replay.out).at("rejected_samples").get<std::int64_t>();
+  CHECK(set_aside > 0);
+  CHECK(per_limit["23.5"] == std::to_string(set_aside));
 }
