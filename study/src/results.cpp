@@ -155,7 +155,10 @@ void write_rows_csv(std::ostream& os, const StudyInfo& info, const std::vector<s
   static const char* kRun[] = {"Pd", "M", "ng_phases", "updates", "rejected_fits", "rejected_samples", "cp_end_h",
                                "duration_h"};
   os << "set,case";
+  // The grid's axes, then its [fixed] options (the same value on every row: a CSV read apart from its
+  // grid still says what its sets held).
   for (const auto& [axis, _] : info.grid.axes) os << "," << csv_cell(axis);
+  for (const auto& [option, _] : info.grid.fixed) os << "," << csv_cell(option);
   os << ",status,error";
   for (const char* f : kRun) os << "," << f;
   os << ",P99_linear,P99_angular,baseline_P99_linear,baseline_P99_angular,uncompensated_P99_linear,"
@@ -169,6 +172,7 @@ void write_rows_csv(std::ostream& os, const StudyInfo& info, const std::vector<s
     const auto c = static_cast<std::size_t>(r.case_index);
     os << r.set_index << "," << csv_cell(c < info.cases.size() ? info.cases[c].name : std::to_string(c));
     for (const auto& [axis, _] : info.grid.axes) os << "," << csv_cell(set < info.sets.size() ? info.sets[set].value(axis) : "");
+    for (const auto& [_, value] : info.grid.fixed) os << "," << csv_cell(value);
     os << "," << (r.ok ? "ok" : "error") << "," << csv_cell(r.error);
     const nlohmann::json& j = reports[i];
     if (j.is_null()) {

@@ -384,9 +384,9 @@ TEST_CASE("SIGINT stops a study cleanly: finished rows stay, --resume completes 
   CHECK(slurp(resumed) == slurp(whole));
 }
 
-TEST_CASE("the study's CSV counts each row's input samples set aside, as alc replay does on the same file and value") {
+TEST_CASE("the study's CSV counts each row's input samples set aside, as alc replay does on the same file and value, and holds the fixed options") {
   // Case A's first 48 h: temperatures up to 23.9 degC, so a plausible limit of 23.5 sets some aside.
-  const fs::path grid = write("plausible.toml", "plausible-temp = [1000, 23.5]\n");
+  const fs::path grid = write("plausible.toml", "plausible-temp = [1000, 23.5]\n[fixed]\nng-meas = 12\nacl-lin = 5\n");
   const fs::path csv = dir() / "plausible.csv";
   const auto r = run_alc("study --grid " + grid.string() + " " + short_case('A').string() + " --quiet --csv " + csv.string(),
                          "study_cli");
@@ -408,11 +408,17 @@ TEST_CASE("the study's CSV counts each row's input samples set aside, as alc rep
     return static_cast<std::size_t>(it - header.begin());
   };
   const std::size_t limit = col("plausible-temp"), rejected = col("rejected_samples"), status = col("status");
+  // The fixed options after the axes, in name order (the grid keeps them so: a TOML table has no order).
+  REQUIRE(header.size() > status);
+  CHECK(std::vector<std::string>(header.begin() + 2, header.begin() + static_cast<std::ptrdiff_t>(status)) ==
+        std::vector<std::string>{"plausible-temp", "acl-lin", "ng-meas"});
   std::map<std::string, std::string> per_limit;
   while (std::getline(lines, line)) {
     const auto c = cells(line);
     REQUIRE(c.size() > rejected);
     CHECK(c[status] == "ok");
+    CHECK(c[col("ng-meas")] == "12");
+    CHECK(c[col("acl-lin")] == "5");
     per_limit[c[limit]] = c[rejected];
   }
   REQUIRE(per_limit.size() == 2);
