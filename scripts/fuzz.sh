@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The libFuzzer targets of fuzz/ (README "Fuzzing"): builds build/fuzz (clang, -DALC_FUZZ=ON) and
-# runs every target from its seed corpus (fuzz/corpus/<target>, never written to).
+# The libFuzzer targets of fuzz/ (README "Fuzzing"): builds them (clang, -DALC_FUZZ=ON; build/fuzz, or
+# build/fuzz-long with --long) and runs every target from its seed corpus (fuzz/corpus/<target>, never
+# written to).
 #   bash scripts/fuzz.sh          the short run of the CTest tests (label fuzz; build/fuzz, -O0)
 #   bash scripts/fuzz.sh --long   10^6 executions per target (ALC_FUZZ_RUNS to change it); prints per
 #                                 target executions, coverage (edges, features), corpus size, time and

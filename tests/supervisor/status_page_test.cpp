@@ -45,14 +45,22 @@ std::vector<std::pair<std::string, int>> listening(pid_t pid) {
   return out;
 }
 
-// One raw HTTP exchange with 127.0.0.1:port: the response's status line ("" when the server closed).
-std::string http_status(int port, const std::string& request) {
-  const int s = ::socket(AF_INET, SOCK_STREAM, 0);
+// One raw HTTP exchange with 127.0.0.1:port (::1 with ipv6): the response's status line ("" when the
+// server closed).
+std::string http_status(int port, const std::string& request, bool ipv6 = false) {
+  const int s = ::socket(ipv6 ? AF_INET6 : AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   a.sin_port = htons(static_cast<std::uint16_t>(port));
-  REQUIRE(::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
+  sockaddr_in6 a6{};
+  a6.sin6_family = AF_INET6;
+  a6.sin6_addr = in6addr_loopback;
+  a6.sin6_port = a.sin_port;
+  if (ipv6)
+    REQUIRE(::connect(s, reinterpret_cast<sockaddr*>(&a6), sizeof a6) == 0);
+  else
+    REQUIRE(::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
   timeval tv{10, 0};
   ::setsockopt(s, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   ::send(s, request.data(), request.size(), MSG_NOSIGNAL);
@@ -181,19 +189,8 @@ TEST_CASE("the status page listens on an IPv6 address given in brackets: ::1 ans
   config.host = "::1";
   config.port = free_port();
   const supervisor::StatusServer server(config, model);
-  const int s = ::socket(AF_INET6, SOCK_STREAM, 0);
-  sockaddr_in6 a{};
-  a.sin6_family = AF_INET6;
-  a.sin6_addr = in6addr_loopback;
-  a.sin6_port = htons(static_cast<std::uint16_t>(config.port));
-  REQUIRE(::connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
-  const std::string request = "GET /state.json HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
-  ::send(s, request.data(), request.size(), MSG_NOSIGNAL);
-  std::string response;
-  char buf[4096];
-  for (ssize_t n; (n = ::recv(s, buf, sizeof buf, 0)) > 0;) response.append(buf, static_cast<std::size_t>(n));
-  ::close(s);
-  CHECK(response.rfind("HTTP/1.1 200 OK\r\n", 0) == 0);
+  CHECK(http_status(config.port, "GET /state.json HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", true) ==
+        "HTTP/1.1 200 OK");
   CHECK_FALSE(port_open(config.port));  // 127.0.0.1: nothing listens there
   // A second server on the same address names it as written in the config.
   CHECK_THROWS_WITH(supervisor::StatusServer(config, model),
