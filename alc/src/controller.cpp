@@ -592,17 +592,15 @@ void Controller::trim() {
   auto& h = state_.history;
   if (h.time_s.empty()) return;
   // Keep the window and the warm-up of the slowest lag; trim in steps of a quarter window so the
-  // copy is paid rarely (memory stays below window x 1.25 + warm-up).
+  // copy is paid rarely (the samples kept stay below window x 1.25 + warm-up; their storage keeps its size).
   const double keep_from = learning_window_start(state_.now_s) -
                            kWarmupTimeConstants * params_.identification.tau_max_s;
   if (!(h.time_s.front() < keep_from - 0.25 * params_.learning_window_s)) return;
   const auto drop = static_cast<std::size_t>(std::lower_bound(h.time_s.begin(), h.time_s.end(), keep_from) -
                                              h.time_s.begin());
   if (drop == 0 || drop >= h.time_s.size()) return;
-  const auto keep = static_cast<Eigen::Index>(h.time_s.size() - drop);
   h.time_s.erase(h.time_s.begin(), h.time_s.begin() + static_cast<std::ptrdiff_t>(drop));
-  InputMatrix rest = h.inputs.bottomRows(keep);
-  h.inputs = std::move(rest);
+  h.inputs.drop_front(static_cast<Eigen::Index>(drop));
   state_.history_first_index += static_cast<std::int64_t>(drop);
   // Probes whose sample is gone go too (they are older than the learning window).
   std::size_t gone = 0;
@@ -722,9 +720,7 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   state_.now_s = time_s;
   ++state_.samples;
   h.time_s.push_back(time_s);
-  const Eigen::Index row = h.inputs.rows();
-  h.inputs.conservativeResize(row + 1, Eigen::NoChange);
-  h.inputs.row(row) = inputs.transpose();
+  h.inputs.append(inputs);
   if (state_.has_model) state_.prediction = state_.predictor.step(time_s, inputs);
   advance(time_s, out);
   if (state_.phase == Phase::PostCalibration && schedule_->checks_each_sample() &&

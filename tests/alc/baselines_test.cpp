@@ -144,7 +144,7 @@ TEST_CASE("baselines: GM(1 N) on unequal intervals equals the numpy computation"
   CHECK_THAT(g.a, WithinAbs(0.7166317917918702, 1e-9));  // [1/h]; the simulated 1/1.5 up to the noise
   CHECK_THAT(g.b(0), WithinAbs(1.2666193629942364, 1e-9));
   CHECK_THAT(g.b(1), WithinAbs(-0.5556953419444912, 1e-9));
-  const Eigen::VectorXd p = g.predict_series(h.time_s, Eigen::MatrixXd(h.inputs));
+  const Eigen::VectorXd p = g.predict_series(h.time_s, Eigen::MatrixXd(h.inputs.matrix()));
   CHECK(p(0) == values.front());
   CHECK_THAT(p(120), WithinAbs(3.1197156890320685, 1e-8));
   CHECK_THAT(p(360), WithinAbs(9.020715432543133, 1e-8));
@@ -185,7 +185,7 @@ TEST_CASE("baselines: GM(1 N) keeps a stable time constant when least squares gi
   REQUIRE(g.ok);
   CHECK(g.a_constrained);
   CHECK_THAT(g.a, WithinRel(1.0 / 6.0, 1e-12));
-  const Eigen::VectorXd p = g.predict_series(h.time_s, Eigen::MatrixXd(h.inputs));
+  const Eigen::VectorXd p = g.predict_series(h.time_s, Eigen::MatrixXd(h.inputs.matrix()));
   CHECK(p.allFinite());
   CHECK(p.cwiseAbs().maxCoeff() < 1e3);
 }

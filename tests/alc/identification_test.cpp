@@ -283,8 +283,10 @@ TEST_CASE("identify: degenerate data gives no NaN and says why it is not usable"
   SECTION("collinear sensors: finite, usable, predicts like the truth") {
     InputHistory twin = h;
     twin.input_names.push_back("T_COPY");
-    twin.inputs.conservativeResize(Eigen::NoChange, 4);
-    twin.inputs.col(3) = 2.0 * h.inputs.col(0).array() + 3.0;  // a second sensor on the same spot
+    InputMatrix wide(h.inputs.rows(), 4);
+    wide.leftCols(3) = h.inputs.matrix();
+    wide.col(3) = 2.0 * h.inputs.col(0).array() + 3.0;  // a second sensor on the same spot
+    twin.inputs = std::move(wide);
     IdentificationOptions o;
     o.select_inputs = false;
     const FitResult fit = identify(twin, {"E_X0C"}, probes, o);
@@ -519,7 +521,7 @@ InputHistory head_of(const InputHistory& h, Eigen::Index n) {
   InputHistory p;
   p.input_names = h.input_names;
   p.time_s.assign(h.time_s.begin(), h.time_s.begin() + n);
-  p.inputs = h.inputs.topRows(n);
+  p.inputs = InputMatrix(h.inputs.topRows(n));
   return p;
 }
 

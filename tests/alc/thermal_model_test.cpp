@@ -1,4 +1,4 @@
-// ModelPredictor (state save/restore, sampling rates, bounds) and IdentificationOptions::validate().
+// SampleRows (the history's growing matrix), ModelPredictor (state save/restore, sampling rates, bounds) and IdentificationOptions::validate().
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
@@ -9,6 +9,41 @@
 using namespace alc;
 using Catch::Matchers::Contains;
 using Catch::Matchers::WithinAbs;
+
+TEST_CASE("SampleRows: appended rows, dropped rows and copies hold exactly the rows in use") {
+  const auto value = [](Eigen::Index r, Eigen::Index c) { return 1000.0 * static_cast<double>(r) + static_cast<double>(c); };
+  SampleRows rows;
+  CHECK(rows.rows() == 0);
+  for (Eigen::Index r = 0; r < 300; ++r) rows.append(Eigen::Vector3d(value(r, 0), value(r, 1), value(r, 2)));
+  REQUIRE(rows.rows() == 300);
+  REQUIRE(rows.cols() == 3);
+  InputMatrix expected(300, 3);
+  for (Eigen::Index r = 0; r < 300; ++r)
+    for (Eigen::Index c = 0; c < 3; ++c) expected(r, c) = value(r, c);
+  CHECK(rows.matrix() == expected);
+  CHECK(rows.col(2).size() == 300);  // a column is as long as the rows in use, not the storage
+  CHECK(rows.bottomRows(1) == expected.bottomRows(1));
+
+  SampleRows copy = rows;  // a copy holds the rows in use and is independent of the original
+  copy(0, 0) = -1.0;
+  CHECK(rows(0, 0) == 0.0);
+  CHECK(copy.rows() == 300);
+
+  rows.drop_front(70);  // the oldest rows go, the rest move up in order
+  REQUIRE(rows.rows() == 230);
+  CHECK(rows.matrix() == expected.bottomRows(230));
+  rows.append(Eigen::Vector3d(7.0, 8.0, 9.0));
+  CHECK(rows.rows() == 231);
+  CHECK(rows.row(230) == Eigen::RowVector3d(7.0, 8.0, 9.0));
+  CHECK(rows.row(229) == expected.row(299));
+
+  rows = InputMatrix(expected.topRows(5));  // a matrix given whole
+  CHECK(rows.rows() == 5);
+  CHECK(rows.matrix() == expected.topRows(5));
+  rows.append(Eigen::Vector3d(1.0, 2.0, 3.0));
+  CHECK(rows.row(5) == Eigen::RowVector3d(1.0, 2.0, 3.0));
+  CHECK(rows.topRows(5) == expected.topRows(5));
+}
 
 TEST_CASE("ModelPredictor: save/restore continues bit for bit") {
   std::mt19937_64 rng(42);

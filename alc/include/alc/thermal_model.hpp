@@ -17,6 +17,7 @@
 // each lag is x[n+1] = a_k x[n] + (1 - a_k) u[n]. The lags are discretised exactly for any sample
 // spacing (zero-order hold of the previous sample), so inputs at 15 s, 60 s or with gaps all work.
 #include <Eigen/Core>
+#include <algorithm>
 #include <limits>
 #include <optional>
 #include <string>
@@ -37,11 +38,66 @@ struct ProbeRecord {
 // Samples x inputs, row-major so that appending a sample extends the storage at its end.
 using InputMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+// The input samples of a history: an InputMatrix that keeps room to grow, so that appending one
+// sample per call costs amortised O(1) (its storage doubles when full) instead of a reallocation
+// and a copy of the whole history each time. The rows in use are the top rows of the storage;
+// every accessor sees those only.
+class SampleRows {
+ public:
+  using Index = Eigen::Index;
+  SampleRows() = default;
+  SampleRows(Index rows, Index cols) : data_(rows, cols), rows_(rows) {}
+  SampleRows(InputMatrix m) : data_(std::move(m)), rows_(data_.rows()) {}  // NOLINT: implicit on purpose
+  SampleRows(const SampleRows& o) : data_(o.data_.topRows(o.rows_)), rows_(o.rows_) {}   // copies the rows in use only
+  SampleRows(SampleRows&&) noexcept = default;
+  SampleRows& operator=(const SampleRows& o) {
+    if (this != &o) {
+      data_ = o.data_.topRows(o.rows_);
+      rows_ = o.rows_;
+    }
+    return *this;
+  }
+  SampleRows& operator=(SampleRows&&) noexcept = default;
+
+  Index rows() const { return rows_; }
+  Index cols() const { return data_.cols(); }
+  auto matrix() { return data_.topRows(rows_); }
+  auto matrix() const { return data_.topRows(rows_); }
+  double& operator()(Index r, Index c) { return data_(r, c); }
+  double operator()(Index r, Index c) const { return data_(r, c); }
+  auto row(Index r) { return data_.row(r); }
+  auto row(Index r) const { return data_.row(r); }
+  auto col(Index c) { return matrix().col(c); }
+  auto col(Index c) const { return matrix().col(c); }
+  auto topRows(Index n) const { return matrix().topRows(n); }
+  auto bottomRows(Index n) const { return matrix().bottomRows(n); }
+  // Sets the shape; the values are unset (as Eigen's resize).
+  void resize(Index rows, Index cols) {
+    data_.resize(rows, cols);
+    rows_ = rows;
+  }
+  // Appends one sample (its size is the number of columns; the first sets it).
+  void append(const Eigen::Ref<const Eigen::VectorXd>& sample) {
+    if (rows_ == 0 && data_.rows() == 0) data_.resize(0, sample.size());
+    if (rows_ == data_.rows()) data_.conservativeResize(std::max<Index>(64, 2 * rows_), Eigen::NoChange);
+    data_.row(rows_++) = sample.transpose();
+  }
+  // Drops the oldest `n` rows; the storage keeps its size for the rows still to come.
+  void drop_front(Index n) {
+    std::copy(data_.data() + n * data_.cols(), data_.data() + rows_ * data_.cols(), data_.data());
+    rows_ -= n;
+  }
+
+ private:
+  InputMatrix data_;
+  Index rows_ = 0;
+};
+
 // Input history given to identification: uniform or not, in time order.
 struct InputHistory {
   std::vector<std::string> input_names;
   std::vector<double> time_s;      // [s]
-  InputMatrix inputs;              // samples x inputs (rows align with time_s)
+  SampleRows inputs;               // samples x inputs (rows align with time_s)
 };
 
 enum class RobustLoss { None, Huber, Cauchy };
