@@ -17,6 +17,7 @@
 
 #include "alc_version.hpp"
 #include "commands.hpp"
+#include "common/atomic_file.hpp"
 #include "common/log.hpp"
 #include "common/number_text.hpp"
 #include "nc_interface/dialects.hpp"
@@ -319,6 +320,11 @@ void run_replay(const ReplayArgs& a) {
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   refuse_output_over_input("--residuals", a.residuals, a.db, "the history database");
   refuse_output_over_input("--residuals", a.residuals, a.file, "the recording replayed");
+  // Judged before the replay (as alc simulate judges --out): a missing directory found only when the
+  // residuals were written cost the whole replay, its run already stored in --db.
+  if (!a.residuals.empty())
+    if (const std::string problem = io::output_file_problem(a.residuals); !problem.empty())
+      throw std::runtime_error("--residuals: cannot write '" + a.residuals + "': " + problem);
   // The NC output directory is written whole (program files, commands.jsonl): --residuals in it would
   // replace one of them, or be replaced.
   if (!a.residuals.empty() && !a.nc_out.empty()) {

@@ -568,6 +568,21 @@ TEST_CASE("alc replay --residuals writes measured and predicted columns after CP
   CHECK(first.rfind("23400,", 0) == 0);  // the first recorded measurement at the end of CP (6.5 h)
 }
 
+TEST_CASE("alc replay --residuals where it cannot be written is refused before the replay, nothing stored") {
+  // Before, the error came after the whole replay, its run already in --db.
+  const fs::path dir = work_dir() / "res_missing";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path file = dir / "no_such_dir" / "res.csv", db = dir / "h.sqlite";
+  const Run r = alc("replay --case A --db \"" + db.string() + "\" --residuals \"" + file.string() + "\"");
+  CHECK(r.exit_code == 1);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("--residuals: cannot write '" + file.string() + "': its directory '" +
+                                              (dir / "no_such_dir").string() + "' cannot be used: No such file or directory"));
+  CHECK_FALSE(fs::exists(db));
+  CHECK_FALSE(fs::exists(dir / "no_such_dir"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("alc replay --case all prints the Tab. 3 table whose rows are the single cases' figures") {
   const Run table = alc("replay --case all");
   INFO(table.err);
