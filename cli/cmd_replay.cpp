@@ -320,11 +320,6 @@ void run_replay(const ReplayArgs& a) {
   if (!a.residuals.empty() && cases.size() != 1) throw UsageError("--residuals needs a single scenario");
   refuse_output_over_input("--residuals", a.residuals, a.db, "the history database");
   refuse_output_over_input("--residuals", a.residuals, a.file, "the recording replayed");
-  // Judged before the replay (as alc simulate judges --out): a missing directory found only when the
-  // residuals were written cost the whole replay, its run already stored in --db.
-  if (!a.residuals.empty())
-    if (const std::string problem = io::output_file_problem(a.residuals); !problem.empty())
-      throw std::runtime_error("--residuals: cannot write '" + a.residuals + "': " + problem);
   // The NC output directory is written whole (program files, commands.jsonl): --residuals in it would
   // replace one of them, or be replaced.
   if (!a.residuals.empty() && !a.nc_out.empty()) {
@@ -335,6 +330,11 @@ void run_replay(const ReplayArgs& a) {
       throw UsageError("--residuals " + a.residuals + " is in the --nc-out directory " + a.nc_out +
                        ", whose files the NC output writes; give another path");
   }
+  // Judged before the replay (as alc simulate judges --out): a missing directory found only when the
+  // residuals were written cost the whole replay, its run already stored in --db.
+  if (!a.residuals.empty())
+    if (const std::string problem = io::output_file_problem(a.residuals); !problem.empty())
+      throw std::runtime_error("--residuals: cannot write '" + a.residuals + "': " + problem);
   for (const auto& [name, scenario] : cases)
     if (const std::string why = runtime::scenario_problem(scenario, params, (a.file.empty() ? "case " : "") + name,
                                                              {"--cp", a.cp, "--since", a.since});
