@@ -5,12 +5,15 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 
 #include "commands.hpp"
 #include "common/atomic_file.hpp"
 #include "common/number_text.hpp"
+#include "runtime/run.hpp"
 #include "runtime/run_state.hpp"
 #include "storage/history_reader.hpp"
+#include "storage/history_writer.hpp"
 #include "storage/history_tools.hpp"
 #include "storage/schema.hpp"
 #include "storage/storage_error.hpp"
@@ -96,6 +99,30 @@ void run_export(const std::string& file, const std::string& table, const std::st
   io::write_file_atomically(target, [&](std::ostream& stream) { storage::export_table_csv(file, table, stream); });
 }
 
+// Marks an unfinished run (running: its process was killed; stopped: it was stopped to be resumed)
+// finished, so that the supervisor on this history begins a new run (calibration first) at its next
+// start instead of resuming it, and a replay --resume no longer finds it. Through the history's
+// writer, so a supervisor or replay that has the file open makes this fail (locked), unchanged.
+void run_finish(const std::string& file, std::int64_t run_id) {
+  { const storage::HistoryReader exists(file); }  // a missing file: "no such file", as db info says
+  storage::WriterOptions options;
+  options.must_exist = true;
+  storage::HistoryWriter writer(file, options);
+  const storage::HistoryReader reader(file);
+  const auto runs = reader.runs();
+  const auto run = std::find_if(runs.begin(), runs.end(), [&](const auto& r) { return r.run_id == run_id; });
+  if (run == runs.end())
+    throw std::runtime_error(file + ": there is no run " + std::to_string(run_id) + "; " +
+                             runtime::unfinished_runs_text(reader, runs));
+  if (run->status != storage::RunStatus::Running && run->status != storage::RunStatus::Stopped)
+    throw std::runtime_error(file + ": run " + std::to_string(run_id) + " of '" + run->source + "' is " +
+                             storage::to_string(run->status) + " already; nothing changed");
+  writer.end_run(run_id, storage::RunStatus::Finished);
+  writer.close();
+  std::cout << file << ": run " << run_id << " of '" << run->source << "' is finished (it was "
+            << storage::to_string(run->status) << "); its records stay\n";
+}
+
 void run_bench(const storage::BenchOptions& options, const std::string& dir) {
   const auto result = storage::bench_history(dir, options);
   std::cout << std::fixed << std::setprecision(0) << "records per mode: " << result.records << " ("
@@ -156,6 +183,14 @@ void add_db_command(CLI::App& app) {
   exp->add_option("--table", *table, "Table to export: " + tables)->required();
   exp->add_option("--out", *out, "CSV file to write ('-' for stdout)")->required();
   exp->callback([file, table, out] { run_export(*file, *table, *out); });
+
+  auto run = std::make_shared<std::int64_t>(0);
+  auto* finish = db->add_subcommand("finish", "Mark an unfinished run (running or stopped) finished, so that a "
+                                              "supervisor on this history begins a new run at its next start");
+  finish->add_option("FILE", *file, "History database")->required();
+  add_whole_option(finish, "--run", *run, "The run to finish (alc db info lists them)", 1,
+                   std::numeric_limits<std::int64_t>::max())->required();
+  finish->callback([file, run] { run_finish(*file, *run); });
 
   auto options = std::make_shared<storage::BenchOptions>();
   auto dir = std::make_shared<std::string>(std::filesystem::temp_directory_path().string());

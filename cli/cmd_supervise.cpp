@@ -46,7 +46,11 @@ void run_supervise(const std::string& file) {
     } catch (const supervisor::ConfigError& e) {
       throw UsageError(e.what());
     } catch (const runtime::ResumeRefused& e) {
-      throw UsageError(std::string(e.what()) + " (finish that run or use another history.db)");
+      // The run found cannot be continued with this configuration: a new one begins once it is ended.
+      const std::string end = e.run > 0 ? "alc db finish " + config.history.db.string() + " --run " + std::to_string(e.run)
+                                        : "alc db finish " + config.history.db.string() + " --run N (alc db info lists them)";
+      throw UsageError(std::string(e.what()) + " (to begin a new run in this history, end that one: " + end +
+                       "; or give another [history] db)");
     }
   } catch (const std::exception& e) {
     // Why it stopped, also in [log] file (a service's stderr may reach no one); stderr gets it from main.

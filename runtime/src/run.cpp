@@ -186,10 +186,12 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
       stored != given)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
                         "' was recorded from other data: content hash " + (stored.empty() ? "(none)" : stored) +
-                        " stored, " + (given.empty() ? "(none)" : given) + " given (another recording under the same name?)");
+                        " stored, " + (given.empty() ? "(none)" : given) + " given (another recording under the same name?)",
+                        found->run_id);
   if (found->config_json != record.config_json)
     throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
-                        "' was started with other parameters: " + config_difference(found->config_json, record.config_json));
+                        "' was started with other parameters: " + config_difference(found->config_json, record.config_json),
+                        found->run_id);
   // Other channels (the supervisor's [signals] changed, another file under the same name): say which.
   const auto names = [](const std::vector<std::string>& v) {
     std::string t;
@@ -203,7 +205,8 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
     if (*stored != *given)
       throw ResumeRefused(db.string() + ": run " + std::to_string(found->run_id) + " of '" + record.source +
                           "' was recorded with other " + kind + ": stored " + names(*stored) + ", given " +
-                          names(*given));
+                          names(*given),
+                          found->run_id);
   run_ = found->run_id;
   // The latest snapshot that decodes (format, checksum): a damaged later one is named and skipped, a
   // run without any usable snapshot is refused unchanged.
@@ -212,7 +215,7 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
     point = writer_.resume_run(run_, run_state_problem);
   } catch (const storage::StorageError& e) {
     if (e.kind != storage::StorageErrorKind::Corrupt) throw;
-    throw ResumeRefused(e.what());
+    throw ResumeRefused(e.what(), run_);
   }
   for (const std::string& skipped : point.skipped)
     log::get("runtime")->warn("{}: run {}: {}; resuming from the latest good one, snapshot {} at t = {} s", db.string(),

@@ -77,7 +77,8 @@ TEST_CASE("alc simulate --help describes its options") {
 TEST_CASE("alc bench --help describes its options") { check_help("bench --help", {"--case", "--repeat", "--long"}); }
 
 TEST_CASE("alc db --help lists its subcommands, and each subcommand its options") {
-  check_help("db --help", {"info", "check", "export", "bench", "path"});
+  check_help("db --help", {"info", "check", "export", "finish", "bench", "path"});
+  check_help("db finish --help", {"FILE", "--run"});
   check_help("db info --help", {"FILE"});
   check_help("db check --help", {"FILE"});
   check_help("db export --help", {"FILE", "--table", "--out"});

@@ -14,6 +14,8 @@
 #include "../cli_support.hpp"
 #include "scenarios/scenario.hpp"
 #include "scenarios/scenario_csv.hpp"
+#include "storage/history_reader.hpp"
+#include "storage/history_writer.hpp"
 
 namespace fs = std::filesystem;
 using alc_test::CliRun;
@@ -214,4 +216,42 @@ TEST_CASE("an absurd temperature reading (a sensor fault) sets the sample aside 
   CHECK(j.at("rejected_samples") == 1);
   CHECK(j.at("updates").get<int>() > 0);
   for (const std::string& name : s.output_names) CHECK(j.at("outputs").at(name).at("P99").is_number());
+}
+
+TEST_CASE("alc db finish ends a stopped run, refuses one that is not unfinished, and waits for a writer holding the file") {
+  const auto scratch_dir = scratch("finish");
+  const fs::path dir = scratch_dir.dir;
+  const std::string db = (dir / "h.sqlite").string();
+  REQUIRE(run("replay --case A --cp 1 --db \"" + db + "\" --stop-at 2").exit_code == 0);
+  const auto status = [&] { return std::string(storage::to_string(storage::HistoryReader(db).runs().at(0).status)); };
+  {
+    // A supervisor or a replay that has the history open: refused (after the writer's busy timeout), unchanged.
+    storage::HistoryWriter holder(db);
+    const CliRun locked = run("db finish \"" + db + "\" --run 1");
+    CHECK(locked.exit_code == 1);
+    CHECK_THAT(locked.err, Catch::Matchers::Contains(db) && Catch::Matchers::Contains("another writer has this history open"));
+  }
+  CHECK(status() == "stopped");
+  const CliRun done = run("db finish \"" + db + "\" --run 1");
+  CHECK(done.exit_code == 0);
+  CHECK_THAT(done.out, Catch::Matchers::Contains(db + ": run 1 of 'case A' is finished (it was stopped); its records stay"));
+  CHECK(status() == "finished");
+  // A replay --resume no longer finds it.
+  const CliRun resume = run("replay --case A --cp 1 --db \"" + db + "\" --resume");
+  CHECK(resume.exit_code == 2);
+  CHECK_THAT(resume.err, Catch::Matchers::Contains("no unfinished run of 'case A'"));
+  const std::pair<std::string, std::string> refused[] = {
+      {"db finish \"" + db + "\" --run 1", "run 1 of 'case A' is finished already; nothing changed"},
+      {"db finish \"" + db + "\" --run 9", "there is no run 9; there is no unfinished run in it"},
+  };
+  for (const auto& [args, message] : refused) {
+    INFO(args);
+    const CliRun r = run(args);
+    CHECK(r.exit_code == 1);
+    CHECK_THAT(r.err, Catch::Matchers::Contains(db + ": " + message));
+  }
+  CHECK(run("db finish \"" + (dir / "none.sqlite").string() + "\" --run 1").exit_code == 2);
+  CHECK_FALSE(fs::exists(dir / "none.sqlite"));
+  CHECK(run("db finish \"" + db + "\" --run 0").exit_code == 2);
+  CHECK(status() == "finished");
 }

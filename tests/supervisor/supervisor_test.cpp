@@ -150,6 +150,57 @@ TEST_CASE("a history.db or spool_dir in a directory that is not there and a tls_
   CHECK_FALSE(fs::exists(dir / "nospool"));
 }
 
+TEST_CASE("a run that the configuration no longer matches is refused naming alc db finish, after which a new run begins") {
+  // Before, the refusal said "finish that run", and no command did.
+  const fs::path dir = temp_dir("new-run");
+  const fs::path db = dir / "h.sqlite";
+  std::string text = config_text();
+  text.replace(text.find("port = 1883"), 11, "port = " + std::to_string(free_port()));  // no broker: it retries
+  write(dir / "s.toml", text);
+  const auto runs = [&] {
+    try {
+      return storage::HistoryReader(db).runs();
+    } catch (const std::exception&) {  // not created yet
+      return std::vector<storage::RunRecord>{};
+    }
+  };
+  // Starts the supervisor and stops it with SIGTERM once it has `count` runs; its exit status.
+  const auto start_until = [&](std::size_t count) {
+    pid_t pid = spawn({ALC_CLI_PATH, "supervise", "--config", (dir / "s.toml").string()}, dir / "out.log");
+    ChildGuard guard{pid};
+    for (int i = 0; i < 600 && runs().size() < count; ++i) sleep_ms(100);
+    ::kill(pid, SIGTERM);
+    const int code = wait_exit(pid);
+    pid = 0;
+    return code;
+  };
+  REQUIRE(start_until(1) == 0);
+  REQUIRE(runs().size() == 1);
+  CHECK(runs()[0].status == storage::RunStatus::Stopped);
+
+  std::string other = text;
+  other.replace(other.find("cp = 6.5"), 8, "cp = 8");
+  write(dir / "s.toml", other);
+  const pid_t refused = spawn({ALC_CLI_PATH, "supervise", "--config", (dir / "s.toml").string()}, dir / "refused.log");
+  CHECK(wait_exit(refused) == 2);
+  const std::string why = read_text(dir / "refused.log");
+  CHECK_THAT(why, Catch::Contains("run 1 of 'supervisor dmu-1' was started with other parameters") &&
+                      Catch::Contains("to begin a new run in this history, end that one: alc db finish ") &&
+                      Catch::Contains("h.sqlite --run 1"));
+  CHECK(runs().size() == 1);
+
+  const pid_t finish = spawn({ALC_CLI_PATH, "db", "finish", db.string(), "--run", "1"}, dir / "finish.log");
+  CHECK(wait_exit(finish) == 0);
+  CHECK_THAT(read_text(dir / "finish.log"), Catch::Contains("run 1 of 'supervisor dmu-1' is finished (it was stopped)"));
+  REQUIRE(start_until(2) == 0);
+  const auto after = runs();
+  REQUIRE(after.size() == 2);
+  CHECK(after[0].status == storage::RunStatus::Finished);
+  CHECK(after[1].status == storage::RunStatus::Stopped);  // the new run, begun with cp = 8, stopped by SIGTERM
+  CHECK(after[1].config_json.find("\"cp_duration_s\":28800") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("messages are refused with the reason named") {
   const std::vector<std::string> in = {"T_ENV", "T_WS"};
   auto reason = [&](const std::string& p) {

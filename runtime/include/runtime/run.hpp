@@ -6,6 +6,7 @@
 // Snapshot schedule: after the first sample at or past the run's first sample + every_s, then
 // after the first sample at or past the previous snapshot + every_s. A resumed run counts from the
 // run's first sample too, so past that point it saves a snapshot after its first sample.
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -47,9 +48,11 @@ std::string unfinished_runs_text(const storage::HistoryReader& history, const st
 std::string config_difference(const std::string& stored_text, const std::string& given_text);
 
 // A resume that cannot be done (no unfinished run, another identity): the history is unchanged.
+// `run`: the unfinished run that was found but cannot be continued (0 when there is none).
 class ResumeRefused : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit ResumeRefused(const std::string& what, std::int64_t run_id = 0) : std::runtime_error(what), run(run_id) {}
+  std::int64_t run;
 };
 
 class RunLifecycle : public Observer {
