@@ -17,6 +17,7 @@
 #include "storage/history_tools.hpp"
 #include "storage/schema.hpp"
 #include "storage/storage_error.hpp"
+#include "supervisor/supervisor.hpp"
 
 namespace alc::cli {
 namespace {
@@ -99,9 +100,9 @@ void run_export(const std::string& file, const std::string& table, const std::st
   io::write_file_atomically(target, [&](std::ostream& stream) { storage::export_table_csv(file, table, stream); });
 }
 
-// Marks an unfinished run (running: its process was killed; stopped: it was stopped to be resumed)
+// Marks a supervisor's unfinished run (running: its process was killed; stopped: stopped by SIGTERM)
 // finished, so that the supervisor on this history begins a new run (calibration first) at its next
-// start instead of resuming it, and a replay --resume no longer finds it. Through the history's
+// start instead of resuming it. Through the history's
 // writer, so a supervisor or replay that has the file open makes this fail (locked), unchanged.
 void run_finish(const std::string& file, std::int64_t run_id) {
   { const storage::HistoryReader exists(file); }  // a missing file: "no such file", as db info says
@@ -117,6 +118,13 @@ void run_finish(const std::string& file, std::int64_t run_id) {
   if (run->status != storage::RunStatus::Running && run->status != storage::RunStatus::Stopped)
     throw std::runtime_error(file + ": run " + std::to_string(run_id) + " of '" + run->source + "' is " +
                              storage::to_string(run->status) + " already; nothing changed");
+  // A replay's run stopped part-way holds the indicators of that part, which a finished run would
+  // present as the whole run's (alc report, replay --case all --resume); a new replay begins a run of
+  // its own anyway.
+  if (!supervisor::is_run_source(run->source))
+    throw std::runtime_error(file + ": run " + std::to_string(run_id) + " of '" + run->source +
+                             "' is not a supervisor's: a replay's run is continued with alc replay --resume or left "
+                             "as it is (a replay without --resume begins a new run); nothing changed");
   writer.end_run(run_id, storage::RunStatus::Finished);
   writer.close();
   std::cout << file << ": run " << run_id << " of '" << run->source << "' is finished (it was "
@@ -185,8 +193,8 @@ void add_db_command(CLI::App& app) {
   exp->callback([file, table, out] { run_export(*file, *table, *out); });
 
   auto run = std::make_shared<std::int64_t>(0);
-  auto* finish = db->add_subcommand("finish", "Mark an unfinished run (running or stopped) finished, so that a "
-                                              "supervisor on this history begins a new run at its next start");
+  auto* finish = db->add_subcommand("finish", "Mark a supervisor's unfinished run (running or stopped) finished, so "
+                                              "that the supervisor begins a new run at its next start");
   finish->add_option("FILE", *file, "History database")->required();
   add_whole_option(finish, "--run", *run, "The run to finish (alc db info lists them)", 1,
                    std::numeric_limits<std::int64_t>::max())->required();

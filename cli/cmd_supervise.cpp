@@ -47,8 +47,9 @@ void run_supervise(const std::string& file) {
       throw UsageError(e.what());
     } catch (const runtime::ResumeRefused& e) {
       // The run found cannot be continued with this configuration: a new one begins once it is ended.
-      const std::string end = e.run > 0 ? "alc db finish " + config.history.db.string() + " --run " + std::to_string(e.run)
-                                        : "alc db finish " + config.history.db.string() + " --run N (alc db info lists them)";
+      const std::string db = "'" + config.history.db.string() + "'";  // quoted as a shell takes it
+      const std::string end = e.run > 0 ? "alc db finish " + db + " --run " + std::to_string(e.run)
+                                        : "alc db finish " + db + " --run N (alc db info lists them)";
       throw UsageError(std::string(e.what()) + " (to begin a new run in this history, end that one: " + end +
                        "; or give another [history] db)");
     }

@@ -173,7 +173,7 @@ Supervisor::~Supervisor() {
 
 void Supervisor::begin_or_resume() {
   storage::RunRecord record;
-  record.source = "supervisor " + config_.machine_id;
+  record.source = run_source(config_.machine_id);
   Json identity = {{"parameters", runtime::canonical_parameters(config_.parameters, controller_.schedule().name())},
                    {"machine", config_.nc.machine ? config_.nc.machine->string() : std::string("built-in")}};
   record.config_json = identity.dump();

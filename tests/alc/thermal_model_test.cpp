@@ -29,6 +29,17 @@ TEST_CASE("SampleRows: appended rows, dropped rows and copies hold exactly the r
   CHECK(rows(0, 0) == 0.0);
   CHECK(copy.rows() == 300);
 
+  SampleRows moved = std::move(copy);  // a moved-from buffer is empty and usable again
+  CHECK(moved.rows() == 300);
+  CHECK(copy.rows() == 0);
+  copy.append(Eigen::Vector3d(1.0, 2.0, 3.0));
+  CHECK(copy.matrix() == Eigen::RowVector3d(1.0, 2.0, 3.0));
+  moved = std::move(copy);
+  CHECK(moved.rows() == 1);
+  CHECK(copy.rows() == 0);
+
+  rows.drop_front(0);
+  CHECK(rows.matrix() == expected);
   rows.drop_front(70);  // the oldest rows go, the rest move up in order
   REQUIRE(rows.rows() == 230);
   CHECK(rows.matrix() == expected.bottomRows(230));

@@ -186,12 +186,15 @@ TEST_CASE("a run that the configuration no longer matches is refused naming alc 
   const std::string why = read_text(dir / "refused.log");
   CHECK_THAT(why, Catch::Contains("run 1 of 'supervisor dmu-1' was started with other parameters") &&
                       Catch::Contains("to begin a new run in this history, end that one: alc db finish ") &&
-                      Catch::Contains("h.sqlite --run 1"));
+                      Catch::Contains("h.sqlite' --run 1"));
   CHECK(runs().size() == 1);
 
   const pid_t finish = spawn({ALC_CLI_PATH, "db", "finish", db.string(), "--run", "1"}, dir / "finish.log");
   CHECK(wait_exit(finish) == 0);
   CHECK_THAT(read_text(dir / "finish.log"), Catch::Contains("run 1 of 'supervisor dmu-1' is finished (it was stopped)"));
+  const pid_t again = spawn({ALC_CLI_PATH, "db", "finish", db.string(), "--run", "1"}, dir / "again.log");
+  CHECK(wait_exit(again) == 1);
+  CHECK_THAT(read_text(dir / "again.log"), Catch::Contains("run 1 of 'supervisor dmu-1' is finished already; nothing changed"));
   REQUIRE(start_until(2) == 0);
   const auto after = runs();
   REQUIRE(after.size() == 2);

@@ -21,6 +21,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace alc {
@@ -49,7 +50,7 @@ class SampleRows {
   SampleRows(Index rows, Index cols) : data_(rows, cols), rows_(rows) {}
   SampleRows(InputMatrix m) : data_(std::move(m)), rows_(data_.rows()) {}  // NOLINT: implicit on purpose
   SampleRows(const SampleRows& o) : data_(o.data_.topRows(o.rows_)), rows_(o.rows_) {}   // copies the rows in use only
-  SampleRows(SampleRows&&) noexcept = default;
+  SampleRows(SampleRows&& o) noexcept : data_(std::move(o.data_)), rows_(std::exchange(o.rows_, 0)) {}
   SampleRows& operator=(const SampleRows& o) {
     if (this != &o) {
       data_ = o.data_.topRows(o.rows_);
@@ -57,7 +58,12 @@ class SampleRows {
     }
     return *this;
   }
-  SampleRows& operator=(SampleRows&&) noexcept = default;
+  SampleRows& operator=(SampleRows&& o) noexcept {
+    data_ = std::move(o.data_);
+    rows_ = std::exchange(o.rows_, 0);
+    o.data_.resize(0, 0);
+    return *this;
+  }
 
   Index rows() const { return rows_; }
   Index cols() const { return data_.cols(); }
@@ -79,11 +85,14 @@ class SampleRows {
   // Appends one sample (its size is the number of columns; the first sets it).
   void append(const Eigen::Ref<const Eigen::VectorXd>& sample) {
     if (rows_ == 0 && data_.rows() == 0) data_.resize(0, sample.size());
+    eigen_assert(sample.size() == data_.cols());
     if (rows_ == data_.rows()) data_.conservativeResize(std::max<Index>(64, 2 * rows_), Eigen::NoChange);
     data_.row(rows_++) = sample.transpose();
   }
   // Drops the oldest `n` rows; the storage keeps its size for the rows still to come.
   void drop_front(Index n) {
+    eigen_assert(n >= 0 && n <= rows_);
+    if (n == 0) return;
     std::copy(data_.data() + n * data_.cols(), data_.data() + rows_ * data_.cols(), data_.data());
     rows_ -= n;
   }

@@ -34,6 +34,11 @@ class HistoryWriter;
 
 namespace alc::supervisor {
 
+// The source of a supervisor's run in the history: "supervisor " + machine_id ("supervisor dmu-1").
+inline constexpr const char* kRunSourcePrefix = "supervisor ";
+inline std::string run_source(const std::string& machine_id) { return kRunSourcePrefix + machine_id; }
+inline bool is_run_source(const std::string& source) { return source.rfind(kRunSourcePrefix, 0) == 0; }
+
 class Inbox;
 class NcLink;
 class ErrorSpace;
