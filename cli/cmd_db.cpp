@@ -102,20 +102,21 @@ void run_export(const std::string& file, const std::string& table, const std::st
 
 // Marks a supervisor's unfinished run (running: its process was killed; stopped: stopped by SIGTERM)
 // finished, so that the supervisor on this history begins a new run (calibration first) at its next
-// start instead of resuming it. Through the history's
-// writer, so a supervisor or replay that has the file open makes this fail (locked), unchanged.
+// start instead of resuming it. Through the history's writer, so a supervisor or replay that has the
+// file open makes this fail (locked), unchanged.
 void run_finish(const std::string& file, std::int64_t run_id) {
   { const storage::HistoryReader exists(file); }  // a missing file: "no such file", as db info says
   storage::WriterOptions options;
   options.must_exist = true;
   storage::HistoryWriter writer(file, options);
+  // Read under the writer's claim on the file, after any migration the writer made on opening it.
   const storage::HistoryReader reader(file);
   const auto runs = reader.runs();
   const auto run = std::find_if(runs.begin(), runs.end(), [&](const auto& r) { return r.run_id == run_id; });
   if (run == runs.end())
     throw std::runtime_error(file + ": there is no run " + std::to_string(run_id) + "; " +
                              runtime::unfinished_runs_text(reader, runs));
-  if (run->status != storage::RunStatus::Running && run->status != storage::RunStatus::Stopped)
+  if (!runtime::unfinished(*run))
     throw std::runtime_error(file + ": run " + std::to_string(run_id) + " of '" + run->source + "' is " +
                              storage::to_string(run->status) + " already; nothing changed");
   // A replay's run stopped part-way holds the indicators of that part, which a finished run would
@@ -164,6 +165,12 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
                        (*suffix ? std::string(" journal '") + database + suffix + "'" : " '" + database + "'") +
                        " itself; writing there would replace it; choose another " + option + " file");
   }
+}
+
+void refuse_unwritable_output(const std::string& option, const std::string& target) {
+  if (target.empty()) return;
+  if (const std::string problem = io::output_file_problem(target); !problem.empty())
+    throw std::runtime_error(option + ": cannot write '" + target + "': " + problem);
 }
 
 void add_db_command(CLI::App& app) {

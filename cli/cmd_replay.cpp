@@ -17,7 +17,6 @@
 
 #include "alc_version.hpp"
 #include "commands.hpp"
-#include "common/atomic_file.hpp"
 #include "common/log.hpp"
 #include "common/number_text.hpp"
 #include "nc_interface/dialects.hpp"
@@ -332,9 +331,7 @@ void run_replay(const ReplayArgs& a) {
   }
   // Judged before the replay (as alc simulate judges --out): a missing directory found only when the
   // residuals were written cost the whole replay, its run already stored in --db.
-  if (!a.residuals.empty())
-    if (const std::string problem = io::output_file_problem(a.residuals); !problem.empty())
-      throw std::runtime_error("--residuals: cannot write '" + a.residuals + "': " + problem);
+  refuse_unwritable_output("--residuals", a.residuals);
   for (const auto& [name, scenario] : cases)
     if (const std::string why = runtime::scenario_problem(scenario, params, (a.file.empty() ? "case " : "") + name,
                                                              {"--cp", a.cp, "--since", a.since});

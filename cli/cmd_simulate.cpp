@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "common/atomic_file.hpp"
 #include "scenarios/load_cases.hpp"
 #include "scenarios/random_processes.hpp"
 #include "scenarios/scenario_csv.hpp"
@@ -129,9 +128,7 @@ void run_simulate(const SimulateArgs& args) {
   // --truth onto --out would replace the scenario with the truth.
   refuse_output_over_input("--truth", args.truth, args.out, "the --out file");
   for (const auto& [option, target] : {std::pair{"--out", &args.out}, std::pair{"--truth", &args.truth}})
-    if (!target->empty())
-      if (const std::string problem = io::output_file_problem(*target); !problem.empty())
-        throw std::runtime_error(std::string(option) + ": cannot write '" + *target + "': " + problem);
+    refuse_unwritable_output(option, *target);
 
   std::vector<sc::SimulatedCase> runs;
   for (const auto& name : names) {

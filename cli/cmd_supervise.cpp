@@ -47,10 +47,10 @@ void run_supervise(const std::string& file) {
       throw UsageError(e.what());
     } catch (const runtime::ResumeRefused& e) {
       // The run found cannot be continued with this configuration: a new one begins once it is ended.
-      const std::string db = "'" + config.history.db.string() + "'";  // quoted as a shell takes it
-      const std::string end = e.run > 0 ? "alc db finish " + db + " --run " + std::to_string(e.run)
-                                        : "alc db finish " + db + " --run N (alc db info lists them)";
-      throw UsageError(std::string(e.what()) + " (to begin a new run in this history, end that one: " + end +
+      // The path quoted as a shell takes it.
+      throw UsageError(std::string(e.what()) + " (to begin a new run in this history, end that one: alc db finish '" +
+                       config.history.db.string() + "' --run " +
+                       (e.run > 0 ? std::to_string(e.run) : std::string("N (alc db info lists them)")) +
                        "; or give another [history] db)");
     }
   } catch (const std::exception& e) {

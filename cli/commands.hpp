@@ -28,6 +28,9 @@ struct ExitStatus : std::runtime_error {
 // for an empty input or target, or "-".
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
                                  const std::string& database, const std::string& what);
+// Before long work whose result goes to `target`: std::runtime_error "OPTION: cannot write 'TARGET':
+// why" when io::output_file_problem knows it cannot be written there. Nothing for an empty target.
+void refuse_unwritable_output(const std::string& option, const std::string& target);
 
 // [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.
 double proc_status_kb(const std::string& field);

@@ -81,13 +81,9 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const storage::RunRec
   log::get("runtime")->info("run {} of '{}' begun", run_, record.source);
 }
 
-namespace {
-
 bool unfinished(const storage::RunRecord& r) {
   return r.status == storage::RunStatus::Running || r.status == storage::RunStatus::Stopped;
 }
-
-}  // namespace
 
 std::string scenario_hash_of(const std::string& config_json) {
   const auto j = nlohmann::json::parse(config_json, nullptr, false);

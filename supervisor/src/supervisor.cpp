@@ -181,10 +181,8 @@ void Supervisor::begin_or_resume() {
   record.input_names = config_.signals.inputs;
   record.output_names = config_.signals.outputs;
   record.offset_names = runtime::HistoryRecorder::offset_names(config_.machine.chain, config_.signals.outputs);
-  bool unfinished = false;
-  for (const auto& r : storage::HistoryReader(config_.history.db).runs())
-    unfinished = unfinished || (r.source == record.source && (r.status == storage::RunStatus::Running ||
-                                                              r.status == storage::RunStatus::Stopped));
+  const bool unfinished =
+      runtime::latest_unfinished_run(storage::HistoryReader(config_.history.db).runs(), record.source).has_value();
   const double every = config_.history.snapshot_every_s;
   if (unfinished)
     lifecycle_ = std::make_unique<runtime::RunLifecycle>(*writer_, config_.history.db, record, every,

@@ -25,6 +25,9 @@ namespace alc::runtime {
 // same identity make the same decisions on the same data.
 nlohmann::json canonical_parameters(const AlcParameters& parameters, std::string_view schedule = "paper");
 
+// A run that may still be resumed: running (killed, or still running) or stopped.
+bool unfinished(const storage::RunRecord& run);
+
 // The latest run of `source` running or stopped (none if there is none).
 std::optional<storage::RunRecord> latest_unfinished_run(const std::vector<storage::RunRecord>& runs,
                                                         const std::string& source);
