@@ -69,7 +69,6 @@ CheckReport check_history(const std::filesystem::path& path, const SnapshotCheck
   CheckReport report;
   int version = 0;
   auto db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, version);
-  db->exec("PRAGMA query_only = ON");
 
   // SQLite's own checks first. On a damaged file a later check can stop on an unreadable page
   // (SQLITE_CORRUPT): what was found so far is kept and the failure is reported as a problem.

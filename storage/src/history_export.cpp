@@ -152,7 +152,6 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
   }
   int version = 0;
   auto db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, version);
-  db->exec("PRAGMA query_only = ON");
 
   std::map<std::string, ChannelMap> channels;
   for (const Column& c : spec->columns)

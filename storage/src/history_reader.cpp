@@ -42,7 +42,6 @@ struct HistoryReader::Impl {
 HistoryReader::HistoryReader(const std::filesystem::path& path) : impl_(std::make_unique<Impl>()) {
   impl_->file = path;
   impl_->db = detail::open_database(path, {detail::OpenMode::Read, 5000, false}, impl_->version);
-  impl_->db->exec("PRAGMA query_only = ON");
   alc::log::get("storage")->info("opened history {} for reading (schema version {})", path.string(), impl_->version);
 }
 

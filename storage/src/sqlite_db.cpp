@@ -493,8 +493,20 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
                          "the file is read-only (no write permission for this user); left untouched");
   }
 
+  // SQLite deletes FILE-wal and FILE-shm when the last connection closes, unless that connection is
+  // read-only: a read-only reader of a file no writer has open would leave both behind (two per shard
+  // after alc study merge, two beside every history after alc report). Where no FILE-wal lies beside
+  // the file (no writer running, none killed) and this user may write the file and its directory, a
+  // reader opens it read-write with query_only set below, which refuses every change through SQL.
+  // With a FILE-wal present the reader stays read-only and leaves the writer's files alone.
+  bool read_write = write;
+  if (!write && !immutable && !wal_in_readonly_dir) {
+    std::error_code ec;
+    read_write = !fs::exists(fs::path(file.string() + "-wal"), ec) && !ec &&
+                 ::access(parent.c_str(), W_OK) == 0 && !io::read_only_file(file);
+  }
   int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;
-  flags |= write ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY;
+  flags |= read_write ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY;
   if (write && !facts.exists) flags |= SQLITE_OPEN_CREATE;  // never create over an existing file
   if (immutable) flags |= SQLITE_OPEN_URI;
   const std::string name = immutable ? file_uri(file, "mode=ro&immutable=1") : file.string();
@@ -504,6 +516,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   if (rc != SQLITE_OK) db->fail(rc, "opening");
   sqlite3_extended_result_codes(handle, 1);
   sqlite3_busy_timeout(handle, options.busy_timeout_ms);
+  if (!write) db->exec("PRAGMA query_only = ON");
   // The file may be hostile: SQL functions and virtual tables with side effects must not run from
   // its schema (triggers, views, CHECK constraints, DEFAULTs, indexes, generated columns).
   int trusted = 1;

@@ -5,8 +5,10 @@
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 
 #include "storage/history_reader.hpp"
+#include "storage/history_tools.hpp"
 #include "storage/history_writer.hpp"
 #include "storage/study_store.hpp"
 #include "storage_test_support.hpp"
@@ -39,4 +41,45 @@ TEST_CASE("history locks: a reader opened beside the writer in one process keeps
                             (dir / "count").string() + "'";
   REQUIRE(std::system(count.c_str()) == 0);
   CHECK(test::read_bytes(dir / "count") == "80\n");
+}
+
+// SQLite deletes FILE-wal and FILE-shm when the last connection closes, unless that connection is
+// read-only; a reader of a file no writer has open opens it read-write with query_only, so it leaves
+// nothing behind (alc report, alc db, alc study merge and report read files this way).
+TEST_CASE("history locks: a reader of a history no writer has open leaves the file as it was, with no -wal or -shm") {
+  const test::ScratchDir dir;
+  const auto file = dir / "h.sqlite";
+  {
+    HistoryWriter writer(file);
+    const RunId id = writer.begin_run(test::small_run());
+    for (int k = 0; k < 20; ++k) writer.add(test::sample_at(id, k));
+    writer.commit();
+  }
+  const auto no_side_files = [&] {
+    CHECK_FALSE(std::filesystem::exists(file.string() + "-wal"));
+    CHECK_FALSE(std::filesystem::exists(file.string() + "-shm"));
+  };
+  no_side_files();
+  const std::string before = test::read_bytes(file);
+  {
+    const HistoryReader reader(file);
+    CHECK(reader.input_samples(1).size() == 20);
+  }
+  no_side_files();
+  CHECK(check_history(file).ok());
+  no_side_files();
+  std::ostringstream csv;
+  export_table_csv(file, "input_samples", csv);
+  CHECK(csv.str().find('\n') != std::string::npos);
+  no_side_files();
+  CHECK_FALSE(StudyStore::header_of(file));
+  no_side_files();
+  CHECK(test::read_bytes(file) == before);
+  // With the writer open the reader stays read-only, and the writer's WAL stays where it is.
+  HistoryWriter writer(file);
+  writer.add(test::sample_at(1, 20));
+  writer.commit();
+  REQUIRE(std::filesystem::exists(file.string() + "-wal"));
+  CHECK(HistoryReader(file).input_samples(1).size() == 21);
+  CHECK(std::filesystem::exists(file.string() + "-wal"));
 }

@@ -232,6 +232,13 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     CHECK_THAT(merge.err, Catch::Contains("merged 3 shards into " + merged.string() + ": "));
     REQUIRE(run_alc("study report " + merged.string() + " --csv " + merged_csv.string(), "study_cli").exit_code == 0);
     CHECK(slurp(merged_csv) == text);
+    // Reading the shards and the merged file leaves no -wal or -shm beside them (one pair per shard
+    // of a cluster's study otherwise).
+    for (const fs::path& f : {dir() / "shard1.sqlite", dir() / "shard2.sqlite", dir() / "shard3.sqlite", merged})
+      for (const char* side : {"-wal", "-shm"}) {
+        INFO(f.string() + side);
+        CHECK_FALSE(fs::exists(f.string() + side));
+      }
     const fs::path bad = dir() / "bad.sqlite";
     fs::remove(bad);
     auto m = run_alc("study merge --out " + bad.string() + " " + (dir() / "shard1.sqlite").string() + " " +
