@@ -148,7 +148,8 @@ void run_bench(const storage::BenchOptions& options, const std::string& dir) {
 }  // namespace
 
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
-                                 const std::string& database, const std::string& what) {
+                                 const std::string& database, const std::string& what,
+                                 const std::string& consequence) {
   namespace fs = std::filesystem;
   if (database.empty() || target.empty() || target == "-") return;
   std::error_code ec1, ec2;
@@ -163,7 +164,7 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
     if (same)
       throw UsageError(option + " '" + target.string() + "' is " + what +
                        (*suffix ? std::string(" journal '") + database + suffix + "'" : " '" + database + "'") +
-                       " itself; writing there would replace it; choose another " + option + " file");
+                       " itself; " + consequence + "; choose another " + option + " file");
   }
 }
 

@@ -28,6 +28,7 @@ struct NcArgs {
   std::string sink = "stdout";
   std::string spool_dir;
   int port = 5007;
+  bool port_given = false;
 };
 
 // The offsets in force now: axis_offsets lines, at most one per work offset (a line without one: the
@@ -62,6 +63,14 @@ void run_nc(const NcArgs& args) {
   if (args.sink == "linuxcncrsh" && *dialect != nc::Dialect::LinuxCNC)
     throw UsageError("--sink linuxcncrsh needs --dialect linuxcnc");
   if (args.sink == "spool" && args.spool_dir.empty()) throw UsageError("--sink spool needs --spool-dir DIR");
+  // An option of another sink would be ignored: `--spool-dir DIR` alone wrote the program to stdout,
+  // and a DNC script that forgot --sink delivered nothing, with exit 0.
+  if (!args.spool_dir.empty() && args.sink != "spool")
+    throw UsageError("--spool-dir is for --sink spool; with --sink " + args.sink +
+                     " it would be ignored (give --sink spool, or leave --spool-dir out)");
+  if (args.port_given && args.sink != "linuxcncrsh")
+    throw UsageError("--port is for --sink linuxcncrsh; with --sink " + args.sink +
+                     " it would be ignored (give --sink linuxcncrsh, or leave --port out)");
   nc::MachineConfig config;
   if (!args.machine.empty()) {
     try {
@@ -162,8 +171,11 @@ void add_nc_command(CLI::App& app) {
   cmd->add_option("--sink", args->sink, "stdout (one program), spool (one file per command) or linuxcncrsh")
       ->check(CLI::IsMember({"stdout", "spool", "linuxcncrsh"}));
   cmd->add_option("--spool-dir", args->spool_dir, "directory for --sink spool");
-  add_whole_option(cmd, "--port", args->port, "linuxcncrsh port on localhost", 1, 65535);
-  cmd->callback([args] { run_nc(*args); });
+  CLI::Option* port = add_whole_option(cmd, "--port", args->port, "linuxcncrsh port on localhost (default 5007)", 1, 65535);
+  cmd->callback([args, port] {
+    args->port_given = port->count() > 0;
+    run_nc(*args);
+  });
 }
 
 }  // namespace alc::cli

@@ -25,9 +25,10 @@ struct ExitStatus : std::runtime_error {
 // (`what`: "the history database", "the recording replayed") or one of its SQLite journals (-wal,
 // -shm, -journal), under any spelling: the same path after resolving symlinks and `.`/`..`, or the
 // same file (a hard link). Writing there would replace the input with the output. Nothing to check
-// for an empty input or target, or "-".
+// for an empty input or target, or "-". `consequence` says what writing there would do.
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
-                                 const std::string& database, const std::string& what);
+                                 const std::string& database, const std::string& what,
+                                 const std::string& consequence = "writing there would replace it");
 // Before long work whose result goes to `target`: std::runtime_error "OPTION: cannot write 'TARGET':
 // why" when io::output_file_problem knows it cannot be written there. Nothing for an empty target.
 void refuse_unwritable_output(const std::string& option, const std::string& target);

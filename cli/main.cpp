@@ -44,6 +44,26 @@ void refuse_empty_values(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_empty_values(*sub);
 }
 
+// The log is appended to: a --log-file that is a file the command reads or writes (the recording
+// replayed, the history or its -wal, a grid, a config) would get log lines in the middle of its data.
+// Every value given to the command is checked, as a path, whether or not that file exists yet (the
+// history a replay creates); a log named as another value (--case A, --log-file A) is refused too.
+void refuse_log_over_input(const CLI::App& app, const std::string& log_file, const std::string& command = "alc") {
+  for (const CLI::App* sub : app.get_subcommands()) {
+    const std::string path = command + " " + sub->get_name();
+    for (const CLI::Option* o : sub->get_options()) {
+      if (o->get_type_size() <= 0) continue;
+      for (const std::string& value : o->results()) {
+        const std::string name = o->get_name().empty() ? o->get_name(true, false) : o->get_name();
+        alc::cli::refuse_output_over_input("--log-file", log_file, value,
+                                           path + "'s " + name,
+                                           "log lines would be written into it");
+      }
+    }
+    refuse_log_over_input(*sub, log_file, path);
+  }
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"alc: adaptive learning control of thermal errors of a 5-axis machine tool's rotary axis.\n"
                "Predicts the thermal location errors of the C axis from temperatures and machine states "
@@ -70,6 +90,7 @@ int run(int argc, char** argv) {
       throw alc::cli::UsageError("--log-level: '" + log_level +
                                  "' is not a level (trace, debug, info, warn, error, critical, off)");
     log_options.level = *level;
+    if (!log_options.file.empty()) refuse_log_over_input(app, log_options.file);
     alc::log::configure(log_options);
   });
   // Commands register here, one line each.

@@ -55,6 +55,29 @@ TEST_CASE("alc --log-file: opening a history logs a [storage] line to the file a
   CHECK(quiet.err.empty());
 }
 
+TEST_CASE("alc --log-file that is a file the command reads or writes is refused before anything is written to it") {
+  const fs::path dir = alc_test::work_dir("log_cli_test");
+  const fs::path history = empty_history();
+  const std::string before = alc_test::slurp(history);
+  // The history read (at info a [storage] line would be logged into it), under another spelling.
+  auto r = run("--log-level info --log-file " + quoted(dir / "." / "history.sqlite") + " db info " + quoted(history));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--log-file") && Catch::Contains("alc db info's FILE") &&
+                        Catch::Contains("log lines would be written into it"));
+  CHECK(r.out.empty());
+  CHECK(alc_test::slurp(history) == before);
+  // The -wal of a history that the replay would create: refused before the history exists.
+  const fs::path made = dir / "made.sqlite";
+  fs::remove(made);
+  r = run("--log-file " + quoted(dir / "made.sqlite-wal") + " replay --case A --db " + quoted(made));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("alc replay's --db journal"));
+  CHECK_FALSE(fs::exists(made));
+  CHECK_FALSE(fs::exists(dir / "made.sqlite-wal"));
+  // A log beside them is fine.
+  CHECK(run("--log-file " + quoted(dir / "alc.log") + " db info " + quoted(history)).exit_code == 0);
+}
+
 TEST_CASE("alc --log-file in a directory that does not exist fails naming the file") {
   const fs::path log = alc_test::work_dir("log_cli_test") / "no_such_dir" / "alc.log";
   fs::remove_all(log.parent_path());

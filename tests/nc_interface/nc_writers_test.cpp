@@ -958,6 +958,39 @@ TEST_CASE("alc nc --sink spool: one whole program file per command as sent", "[n
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("alc nc: an option of another sink is refused, not ignored (--spool-dir without --sink spool, --port without linuxcncrsh)",
+          "[nc][cli][transport]") {
+  const auto dir = alc::nc::test::fresh_dir("cli_sink_options");
+  const auto spool = dir / "spool";
+  std::filesystem::create_directories(spool);
+  std::ostringstream jsonl;
+  write_commands_jsonl(jsonl, {ProbeInterval{30.0, {}}});
+  alc::nc::test::write_text(dir / "in.jsonl", jsonl.str());
+  const std::string in = " --in " + (dir / "in.jsonl").string();
+  // --spool-dir alone: the program went to stdout and the spool stayed empty, exit 0.
+  auto r = alc_test::run_alc("nc --dialect linuxcnc --spool-dir " + spool.string() + in, "cli_sink_options");
+  CHECK(r.exit_code == 2);
+  CHECK(r.out.empty());
+  CHECK_THAT(r.err, Contains("--spool-dir is for --sink spool") && Contains("--sink stdout"));
+  r = alc_test::run_alc("nc --dialect linuxcnc --sink linuxcncrsh --spool-dir " + spool.string() + in, "cli_sink_options");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Contains("--spool-dir is for --sink spool") && Contains("--sink linuxcncrsh"));
+  r = alc_test::run_alc("nc --dialect linuxcnc --port 5007" + in, "cli_sink_options");
+  CHECK(r.exit_code == 2);
+  CHECK(r.out.empty());
+  CHECK_THAT(r.err, Contains("--port is for --sink linuxcncrsh") && Contains("--sink stdout"));
+  r = alc_test::run_alc("nc --dialect linuxcnc --sink spool --spool-dir " + spool.string() + " --port 5007" + in,
+                        "cli_sink_options");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Contains("--port is for --sink linuxcncrsh") && Contains("--sink spool"));
+  CHECK(std::filesystem::is_empty(spool));
+  // Each with its own sink works.
+  r = alc_test::run_alc("nc --dialect linuxcnc --sink spool --spool-dir " + spool.string() + in, "cli_sink_options");
+  CHECK(r.exit_code == 0);
+  CHECK_FALSE(std::filesystem::is_empty(spool));
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("alc nc: a failing sink prints the undelivered commands as JSON lines and exits 1", "[nc][cli][transport]") {
   const auto dir = alc::nc::test::fresh_dir("cli_failing_sink");
   alc::nc::test::write_text(dir / "split.toml", std::string("[limits]\non_step_violation = \"split\"\n") +
