@@ -170,6 +170,7 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
 
 void refuse_unwritable_output(const std::string& option, const std::string& target) {
   if (target.empty()) return;
+  if (target == "-") throw UsageError(option + " writes a file; '-' (stdout) is not offered");
   if (const std::string problem = io::output_file_problem(target); !problem.empty())
     throw std::runtime_error(option + ": cannot write '" + target + "': " + problem);
 }

@@ -40,6 +40,7 @@ struct ReplayArgs {
   std::string case_name;
   std::uint64_t seed = 0;
   bool seed_given = false;
+  std::string adaptive_option_given;  // the first of the adaptive schedule's options given, "" = none
   std::string cp = "6.5", cp_interval = "5", interval = "2", ng_interval = "10", ng_meas = "12", update = "inf";
   std::string acl_lin = "5", acl_ang = "15";
   std::string window = common::shortest_text(AlcParameters{}.learning_window_s / 3600.0);  // [h] 336 = 14 d
@@ -296,6 +297,11 @@ void run_replay(const ReplayArgs& a) {
   // It would be ignored, yet stored in the run's identity (a later --resume without it refused).
   if (!a.file.empty() && a.seed_given) throw UsageError("--seed applies to --case (a simulated load case), not to a FILE");
   const AlcParameters params = parameters_from(a);
+  // Read only by the adaptive schedule: under the paper's it would be ignored and the run be the
+  // default one, while the user believes it ran with that value (after the values are judged).
+  if (!a.adaptive_option_given.empty() && a.schedule != "adaptive")
+    throw UsageError(a.adaptive_option_given + " is for --schedule adaptive; under --schedule " + a.schedule +
+                     " it would be ignored (give --schedule adaptive, or leave it out)");
   std::vector<BaselineKind> baselines;
   if (!a.baselines.empty()) {
     try {
@@ -342,6 +348,7 @@ void run_replay(const ReplayArgs& a) {
   nc::Dialect dialect = nc::Dialect::LinuxCNC;
   // The machine's chain gives the offsets of --nc-out and those stored with --db.
   if (!a.machine.empty() && a.nc_out.empty() && a.db.empty()) throw UsageError("--machine needs --nc-out or --db");
+  if (a.nc_out == "-") throw UsageError("--nc-out writes a directory; '-' (stdout) is not offered");
   if (!a.machine.empty()) {
     try {
       machine = nc::read_machine_config(a.machine);
@@ -587,15 +594,17 @@ void add_replay_command(CLI::App& app) {
   // The adaptive schedule's and the plausibility limits' options: the help texts of the one option table
   // (runtime/parameter_options.cpp).
   const auto add_table_options = [&](std::initializer_list<std::pair<const char*, std::string*>> options) {
+    std::vector<CLI::Option*> added;
     for (const auto& [name, value] : options) {
       const runtime::ParameterOption* o = runtime::find_parameter_option(name);
       const std::string unit = o->unit == "-" ? "" : " [" + std::string(o->unit) + "]";
-      cmd->add_option("--" + std::string(name), *value, std::string(o->help) + unit)->capture_default_str();
+      added.push_back(cmd->add_option("--" + std::string(name), *value, std::string(o->help) + unit)->capture_default_str());
     }
+    return added;
   };
-  add_table_options({{"uncertainty-fraction", &args->uncertainty_fraction},
-                     {"min-interval", &args->min_interval},
-                     {"max-interval", &args->max_interval}});
+  const auto adaptive_options = add_table_options({{"uncertainty-fraction", &args->uncertainty_fraction},
+                                                   {"min-interval", &args->min_interval},
+                                                   {"max-interval", &args->max_interval}});
   auto* guard = cmd->add_flag("--guard", args->guard, "The guard, on by default (kept for older command lines)");
   cmd->add_flag("--no-guard", args->no_guard,
                 "Compensate with the model's prediction as it is. By default a guard backs compensation off per "
@@ -641,7 +650,11 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--machine", args->machine,
                   "Machine config (TOML) for --nc-out and --db: kinematic chain (also of the offsets stored with "
                   "the predictions), NC options, safety limits (default: the built-in A-C chain and limits)");
-  cmd->callback([args] { run_replay(*args); });
+  cmd->callback([args, adaptive_options] {
+    for (const CLI::Option* o : adaptive_options)
+      if (o->count() > 0 && args->adaptive_option_given.empty()) args->adaptive_option_given = o->get_name();
+    run_replay(*args);
+  });
 }
 
 }  // namespace alc::cli

@@ -21,6 +21,7 @@ struct ReportArgs {
 
 void run_report(const ReportArgs& a) {
   refuse_output_over_input("--out", a.out, a.file, "the database to report");
+  refuse_unwritable_output("--out", a.out);
   report::ReportOptions o;
   o.runs = a.runs;
   o.software_version = std::string("alc ") + ALC_VERSION;

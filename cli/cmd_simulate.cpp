@@ -121,9 +121,6 @@ void run_simulate(const SimulateArgs& args) {
 
   std::optional<std::uint64_t> seed;
   if (args.seed_given) seed = parse_seed(args.seed);
-  for (const auto& [option, target] : {std::pair{"--out", &args.out}, std::pair{"--truth", &args.truth}})
-    if (*target == "-")
-      throw UsageError(std::string("simulate: ") + option + " writes a file; '-' (stdout) is not offered");
   // Both targets judged before either is written: a failed command leaves nothing half done, and
   // --truth onto --out would replace the scenario with the truth.
   refuse_output_over_input("--truth", args.truth, args.out, "the --out file");

@@ -30,7 +30,8 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
                                  const std::string& database, const std::string& what,
                                  const std::string& consequence = "writing there would replace it");
 // Before long work whose result goes to `target`: std::runtime_error "OPTION: cannot write 'TARGET':
-// why" when io::output_file_problem knows it cannot be written there. Nothing for an empty target.
+// why" when io::output_file_problem knows it cannot be written there; UsageError for "-" (an option
+// that writes a file offers no stdout: "-" would be a file of that name). Nothing for an empty target.
 void refuse_unwritable_output(const std::string& option, const std::string& target);
 
 // [kB] a field of /proc/self/status ("VmRSS", "VmHWM"); 0 where it cannot be read.

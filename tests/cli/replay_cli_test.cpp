@@ -497,6 +497,12 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       // A default that another option makes invalid: named with its default text.
       {"replay --case A --min-interval 20",
        "invalid parameters: max-interval = 12 (max_interval_s = 43200): must not be below min_interval_s"},
+      // The adaptive schedule's options under the paper's: they would be ignored, the run the default one.
+      {"replay --case A --uncertainty-fraction 0.3",
+       "--uncertainty-fraction is for --schedule adaptive; under --schedule paper it would be ignored"},
+      {"replay --case A --schedule paper --max-interval 1",
+       "--max-interval is for --schedule adaptive; under --schedule paper it would be ignored"},
+      {"replay --case A --min-interval 1", "--min-interval is for --schedule adaptive"},
   };
   for (const auto& [args, message] : refused) {
     INFO(args);
@@ -580,6 +586,32 @@ TEST_CASE("alc replay --residuals where it cannot be written is refused before t
                                               (dir / "no_such_dir").string() + "' cannot be used: No such file or directory"));
   CHECK_FALSE(fs::exists(db));
   CHECK_FALSE(fs::exists(dir / "no_such_dir"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("an option that writes a file or directory refuses '-' rather than make a file named '-'") {
+  // `-` means stdout where an option offers it (db export --out, study --csv); these write files, and
+  // took '-' as a name: a 405 kB file './-' from --residuals, a directory './-' from --nc-out.
+  const fs::path dir = work_dir() / "dash";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path db = dir / "h.sqlite";
+  const fs::path dash = fs::current_path() / "-";
+  REQUIRE_FALSE(fs::exists(dash));
+  Run r = alc("replay --case A --db \"" + db.string() + "\" --residuals -");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("--residuals writes a file; '-' (stdout) is not offered"));
+  CHECK_FALSE(fs::exists(db));
+  r = alc("replay --case A --db \"" + db.string() + "\" --nc-out -");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("--nc-out writes a directory; '-' (stdout) is not offered"));
+  CHECK_FALSE(fs::exists(db));
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\"").exit_code == 0);
+  r = alc("report \"" + db.string() + "\" --out -");
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Matchers::Contains("--out writes a file; '-' (stdout) is not offered"));
+  CHECK(r.out.empty());
+  CHECK_FALSE(fs::exists(dash));
   fs::remove_all(dir);
 }
 
