@@ -227,6 +227,9 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
 }
 
 void Controller::schedule_next(double time_s, ControllerOutput& out) {
+  // After the guard's first check (enter), a fixed interval is the schedule's again.
+  if (state_.phase == Phase::PostCalibration && !schedule_->checks_each_sample())
+    set_interval(schedule_->interval(state_.phase), time_s, out, "Post-CP interval after the first check");
   state_.schedule_since_s = time_s;
   state_.schedule_prediction = state_.prediction;
   const probing::ScheduleContext ctx = schedule_context(time_s);
@@ -305,6 +308,9 @@ constexpr double kGuardDecay = 0.95;
 constexpr int kGuardMinProbes = 12;
 constexpr double kGuardStep = 0.1;
 constexpr double kRangeMargin = 1.0;
+// The first check of a model fitted on a burst of probes (CP, NG): the first Post-CP probe after it
+// comes after this fraction of the Post-CP interval (docs/adaptive.md, "The first check").
+constexpr double kFirstCheckFraction = 0.5;
 // The drift bound: compensation stays within the latest probe's thermal error +- kDriftFactor x the
 // fastest rate of change measured between two probes at least kDriftSpan apart x the time since it.
 // Over a span s a sinusoidal error's change is sinc(pi s / period) of its fastest rate: with 2 x and
@@ -511,10 +517,24 @@ void Controller::settle_range(std::size_t j) {
 double Controller::next_due(double time_s) const { return schedule_->next_due(schedule_context(time_s)); }
 
 void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason,
-                       const std::string& interval_reason) {
+                       const std::string& interval_reason, bool burst_model) {
   change_phase(to, time_s, out, reason);
   set_interval(schedule_->interval(to), time_s, out, interval_reason);
   schedule_next(time_s, out);
+  // The guard's first check: a model fitted on a burst of probes (the CP's, an NG burst's) explains
+  // every one of them in-sample, and how it predicts beyond the burst no probe has judged yet; under a
+  // fixed interval the next probe comes at half of it. A schedule that asks the model's uncertainty at
+  // every sample (adaptive) decides its own first interval.
+  if (!burst_model || !params_.guard || to != Phase::PostCalibration || !std::isfinite(params_.post_cp_interval_s) ||
+      schedule_->checks_each_sample())
+    return;
+  const double first_s = kFirstCheckFraction * params_.post_cp_interval_s;
+  if (!(time_s + first_s < state_.next_probe_due_s)) return;
+  state_.next_probe_due_s = time_s + first_s;
+  set_interval(first_s, time_s, out,
+               "the guard's first check of the model fitted on the " +
+                   std::string(reason.rfind("calibration", 0) == 0 ? "CP" : "NG") +
+                   " probes: half the Post-CP interval");
 }
 
 Eigen::VectorXd Controller::thermal_errors(const ProbeMeasurement& probe) const {
@@ -671,7 +691,7 @@ void Controller::advance(double time_s, ControllerOutput& out) {
         if (budget > 0.0) state_.schedule_sums.row(i) << 1.0, 0.0, 0.0, state_.drift_rate(i), 0.0;
       }
     enter(Phase::PostCalibration, time_s, out, "calibration phase complete, first model identified",
-          "Post-CP interval");
+          "Post-CP interval", true);
     return;
   }
   if (state_.phase == Phase::PostCalibration && std::isfinite(params_.update_interval_s) &&
@@ -882,7 +902,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       const bool update = step == probing::NgStep::UpdateAndLeave;
       if (update) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
-            "Post-CP interval");
+            "Post-CP interval", update);
       break;
     }
   }

@@ -71,6 +71,15 @@ AlcParameters test_parameters() {
   return p;
 }
 
+// test_parameters() with seed 004's schedule exactly: the guard off, whose first check would take the
+// first probe after CP and after an NG update at half the Post-CP interval. The tests of the phases time
+// their disturbances to that schedule's probes; the first check has its own test.
+AlcParameters paper_parameters() {
+  AlcParameters p = test_parameters();
+  p.guard = false;
+  return p;
+}
+
 // test_parameters() with the adaptive schedule between `min_h` and `max_h` hours.
 AlcParameters adaptive_parameters(double min_h, double max_h) {
   AlcParameters p = test_parameters();
@@ -116,8 +125,54 @@ struct Driver {
 
 }  // namespace
 
-TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
+TEST_CASE("controller: the guard's first check takes the first probe after CP and after an NG update at half a fixed Post-CP interval") {
+  // With the guard (the default): CP ends at 2 h, the Post-CP interval (1 h) is announced, then the first
+  // check's half of it; the probe at 2.5 h puts the interval back to 1 h.
   Driver d(test_parameters());
+  d.run_until(2 * kHour + kMinute);
+  auto intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(intervals.size() == 3);
+  CHECK(intervals[1].interval_s == 1 * kHour);
+  CHECK(intervals[2].interval_s == 30 * kMinute);
+  CHECK(intervals[2].time_s == 2 * kHour);
+  CHECK(intervals[2].reason == "the guard's first check of the model fitted on the CP probes: half the Post-CP interval");
+  CHECK(d.controller.state().next_probe_due_s == 2 * kHour + 30 * kMinute);
+  d.run_until(2 * kHour + 31 * kMinute);
+  intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(intervals.size() == 4);
+  CHECK(intervals[3].interval_s == 1 * kHour);
+  CHECK(intervals[3].time_s == 2 * kHour + 30 * kMinute);
+  CHECK(d.controller.state().next_probe_due_s == 3 * kHour + 30 * kMinute);
+  // A breach (E_X0C 12 µm off from 3 h on): NG, 3 probes 10 min apart, the update at its end
+  // is a model fitted on a burst again: the next probe at half the interval, then the interval again.
+  Driver b(test_parameters());
+  b.run_until(3 * kHour - kMinute);
+  b.plant.offset_x = 12.0;  // a step the model cannot know: the probe at 3.5 h breaches
+  b.run_until(6 * kHour);
+  const auto phases = b.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() >= 3);
+  REQUIRE(phases[2].to == Phase::PostCalibration);
+  const double ng_end = phases[2].time_s;
+  std::vector<double> after;
+  for (const auto& e : b.of_type(ControllerEvent::Type::ProbeIntervalChange))
+    if (e.time_s >= ng_end) after.push_back(e.interval_s);
+  REQUIRE(after.size() >= 3);
+  CHECK(after[0] == 1 * kHour);
+  CHECK(after[1] == 30 * kMinute);
+  CHECK(after[2] == 1 * kHour);
+  // Without the guard, seed 004's schedule: the first Post-CP probe one interval after CP.
+  Driver off(paper_parameters());
+  off.run_until(2 * kHour + kMinute);
+  CHECK(off.of_type(ControllerEvent::Type::ProbeIntervalChange).size() == 2);
+  CHECK(off.controller.state().next_probe_due_s == 3 * kHour);
+  // The adaptive schedule decides its first interval itself (the paper's, then the evidence).
+  Driver adaptive(adaptive_parameters(0.25, 4));
+  adaptive.run_until(2 * kHour + kMinute);
+  CHECK(adaptive.controller.state().next_probe_due_s == 3 * kHour);
+}
+
+TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
+  Driver d(paper_parameters());
   d.run_until(2 * kHour + 30 * kMinute);
   const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
   REQUIRE(phases.size() == 1);
@@ -140,7 +195,7 @@ TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
 }
 
 TEST_CASE("controller: an ACL breach starts NG, after N probes the model is updated and Post-CP resumes") {
-  Driver d(test_parameters());
+  Driver d(paper_parameters());
   d.run_until(3 * kHour - kMinute);
   d.plant.offset_x = 12.0;  // a step the model cannot know: residual 12 µm > 5 µm
   d.run_until(5 * kHour);
@@ -167,7 +222,7 @@ TEST_CASE("controller: an ACL breach starts NG, after N probes the model is upda
 }
 
 TEST_CASE("controller: a breach on an angular error only is judged against the angular limit") {
-  Driver d(test_parameters());
+  Driver d(paper_parameters());
   d.run_until(3 * kHour - kMinute);
   d.plant.offset_a = 10.0;  // 10 µm/m: beyond 5 (linear) but within 15 µm/m
   d.run_until(4 * kHour - kMinute);
@@ -197,7 +252,7 @@ TEST_CASE("controller: the periodic parameter update interval") {
 }
 
 TEST_CASE("controller: a fit that is not usable keeps the previous model and says why") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.learning_window_s = 40 * kMinute;  // CP end at 2 h: the 8 probes from 80 to 115 min
   p.update_interval_s = 1.5 * kHour;   // 3.5 h: only the 3 h probe is in the window
   Driver d(p);
@@ -278,7 +333,7 @@ TEST_CASE("controller: learning_since_s and learning_window_s choose the probes 
 }
 
 TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the ACL") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.refit_on_probe = true;
   Driver d(p);
   d.run_until(6 * kHour + kMinute);
@@ -295,7 +350,7 @@ TEST_CASE("controller: refit_on_probe learns from every Post-CP probe within the
 TEST_CASE("controller: a confirming probe keeps the structure until the data span has grown by structure_refresh") {
   const auto kept = [](const ControllerEvent& e) { return e.reason.find("structure kept") != std::string::npos; };
   SECTION("1.5: after CP at 2 h the structure is searched again at 3 h (span 1.5 x 2 h), kept at 4 h, searched at 5 h") {
-    AlcParameters p = test_parameters();
+    AlcParameters p = paper_parameters();
     p.refit_on_probe = true;
     p.structure_refresh = 1.5;
     Driver d(p);
@@ -309,7 +364,7 @@ TEST_CASE("controller: a confirming probe keeps the structure until the data spa
     CHECK(kept(updates[4]));        // 6 h < 7.5 h
   }
   SECTION("1: every confirming probe searches the structure") {
-    AlcParameters p = test_parameters();
+    AlcParameters p = paper_parameters();
     p.refit_on_probe = true;
     p.structure_refresh = 1.0;
     Driver d(p);
@@ -317,7 +372,7 @@ TEST_CASE("controller: a confirming probe keeps the structure until the data spa
     for (const auto& e : d.of_type(ControllerEvent::Type::ModelUpdate)) CHECK_FALSE(kept(e));
   }
   SECTION("inf: the structure found at CP end stays; the parameters follow the probes") {
-    AlcParameters p = test_parameters();
+    AlcParameters p = paper_parameters();
     p.refit_on_probe = true;
     p.structure_refresh = kInf;
     Driver d(p);
@@ -334,14 +389,14 @@ TEST_CASE("controller: a confirming probe keeps the structure until the data spa
     }
   }
   SECTION("below 1 is refused") {
-    AlcParameters p = test_parameters();
+    AlcParameters p = paper_parameters();
     p.structure_refresh = 0.5;
     CHECK_THAT(p.validate(), Catch::Matchers::Contains("structure_refresh = 0.5"));
   }
 }
 
 TEST_CASE("controller: with refit_on_probe a breach confirmed by the first NG probe is learned from at once") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.refit_on_probe = true;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
@@ -370,7 +425,7 @@ TEST_CASE("controller: with refit_on_probe a breach confirmed by the first NG pr
 }
 
 TEST_CASE("controller: a breach that the first NG probe does not confirm is set aside as an outlier") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.refit_on_probe = true;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
@@ -418,7 +473,7 @@ TEST_CASE("controller: Post-CP interval inf means no probe after CP") {
 }
 
 TEST_CASE("controller: NG interval inf re-identifies at the breach without a burst") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.ng_interval_s = kInf;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
@@ -432,7 +487,7 @@ TEST_CASE("controller: NG interval inf re-identifies at the breach without a bur
 }
 
 TEST_CASE("controller: NG measurements inf updates after each NG probe beyond the ACL and leaves at the first within") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.ng_measurements = kInf;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
@@ -454,7 +509,7 @@ TEST_CASE("controller: NG measurements inf updates after each NG probe beyond th
 }
 
 TEST_CASE("controller: NG measurements 0 updates right at the breach") {
-  AlcParameters p = test_parameters();
+  AlcParameters p = paper_parameters();
   p.ng_measurements = 0;
   Driver d(p);
   d.run_until(3 * kHour - kMinute);
@@ -981,10 +1036,13 @@ TEST_CASE("controller: the guard holds compensation within the drift the probes 
     p.guard = guard;
     p.acl_linear_um = 2.0;  // the model explains this plant: no breach, and a hold beyond 2 µm is an event
     Driver d(p);
-    d.run_until(6 * kHour + kMinute);  // just after the probe at 6 h
+    // Just after the probe at 6 h (with the guard its first check took the first Post-CP probe at 2.5 h:
+    // the probes are at 3.5, 4.5, 5.5 h, and 6 h is 5.5 h).
+    const double last_probe_s = guard ? 5.5 * kHour : 6 * kHour;
+    d.run_until(last_probe_s + kMinute);
     REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());
     const ControllerState before = d.controller.state();
-    REQUIRE(before.probes.back().time_s == 6 * kHour);
+    REQUIRE(before.probes.back().time_s == last_probe_s);
     const double anchor = before.probes.back().errors(0);
     const double anchor_s = before.probes.back().time_s;
     const double rate = fastest_drift(before, 1 * kHour);  // probes at least 1 h apart
