@@ -524,9 +524,10 @@ void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std
   // The guard's first check: a model fitted on a burst of probes (the CP's, an NG burst's) explains
   // every one of them in-sample, and how it predicts beyond the burst no probe has judged yet; under a
   // fixed interval the next probe comes at half of it. A schedule that asks the model's uncertainty at
-  // every sample (adaptive) decides its own first interval.
-  if (!burst_model || !params_.guard || to != Phase::PostCalibration || !std::isfinite(params_.post_cp_interval_s) ||
-      schedule_->checks_each_sample())
+  // every sample (adaptive) decides its own first interval; the paper's literal loop (no refit on a
+  // probe within the ACL) keeps seed 004's schedule too.
+  if (!burst_model || !params_.guard || !params_.refit_on_probe || to != Phase::PostCalibration ||
+      !std::isfinite(params_.post_cp_interval_s) || schedule_->checks_each_sample())
     return;
   const double first_s = kFirstCheckFraction * params_.post_cp_interval_s;
   if (!(time_s + first_s < state_.next_probe_due_s)) return;

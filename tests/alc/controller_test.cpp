@@ -71,9 +71,10 @@ AlcParameters test_parameters() {
   return p;
 }
 
-// test_parameters() with seed 004's schedule exactly: the guard off, whose first check would take the
-// first probe after CP and after an NG update at half the Post-CP interval. The tests of the phases time
-// their disturbances to that schedule's probes; the first check has its own test.
+// test_parameters() with seed 004's schedule exactly, also where a test turns refit_on_probe on: the
+// guard off, whose first check would then take the first probe after CP and after an NG update at half
+// the Post-CP interval. The tests of the phases time their disturbances to seed 004's probes; the first
+// check has its own test.
 AlcParameters paper_parameters() {
   AlcParameters p = test_parameters();
   p.guard = false;
@@ -126,9 +127,11 @@ struct Driver {
 }  // namespace
 
 TEST_CASE("controller: the guard's first check takes the first probe after CP and after an NG update at half a fixed Post-CP interval") {
-  // With the guard (the default): CP ends at 2 h, the Post-CP interval (1 h) is announced, then the first
-  // check's half of it; the probe at 2.5 h puts the interval back to 1 h.
-  Driver d(test_parameters());
+  // With the guard and refits on probes (both the default): CP ends at 2 h, the Post-CP interval (1 h)
+  // is announced, then the first check's half of it; the probe at 2.5 h puts the interval back to 1 h.
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;
+  Driver d(p);
   d.run_until(2 * kHour + kMinute);
   auto intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
   REQUIRE(intervals.size() == 3);
@@ -145,7 +148,7 @@ TEST_CASE("controller: the guard's first check takes the first probe after CP an
   CHECK(d.controller.state().next_probe_due_s == 3 * kHour + 30 * kMinute);
   // A breach (E_X0C 12 µm off from 3 h on): NG, 3 probes 10 min apart, the update at its end
   // is a model fitted on a burst again: the next probe at half the interval, then the interval again.
-  Driver b(test_parameters());
+  Driver b(p);
   b.run_until(3 * kHour - kMinute);
   b.plant.offset_x = 12.0;  // a step the model cannot know: the probe at 3.5 h breaches
   b.run_until(6 * kHour);
@@ -160,15 +163,20 @@ TEST_CASE("controller: the guard's first check takes the first probe after CP an
   CHECK(after[0] == 1 * kHour);
   CHECK(after[1] == 30 * kMinute);
   CHECK(after[2] == 1 * kHour);
-  // Without the guard, seed 004's schedule: the first Post-CP probe one interval after CP.
-  Driver off(paper_parameters());
-  off.run_until(2 * kHour + kMinute);
-  CHECK(off.of_type(ControllerEvent::Type::ProbeIntervalChange).size() == 2);
-  CHECK(off.controller.state().next_probe_due_s == 3 * kHour);
-  // The adaptive schedule decides its first interval itself (the paper's, then the evidence).
-  Driver adaptive(adaptive_parameters(0.25, 4));
-  adaptive.run_until(2 * kHour + kMinute);
-  CHECK(adaptive.controller.state().next_probe_due_s == 3 * kHour);
+  // Seed 004's schedule, the first Post-CP probe one interval after CP: without the guard, in the
+  // paper's literal loop (no refit on a probe within the ACL), and under the adaptive schedule, which
+  // decides its first interval itself (the paper's, then the evidence).
+  AlcParameters unguarded = p, literal = p, adaptive = adaptive_parameters(0.25, 4);
+  unguarded.guard = false;
+  literal.refit_on_probe = false;
+  adaptive.refit_on_probe = true;
+  for (const AlcParameters& q : {unguarded, literal, adaptive}) {
+    Driver off(q);
+    off.run_until(2 * kHour + kMinute);
+    CHECK(off.controller.state().next_probe_due_s == 3 * kHour);
+    for (const auto& e : off.of_type(ControllerEvent::Type::ProbeIntervalChange))
+      CHECK(e.reason.find("first check") == std::string::npos);
+  }
 }
 
 TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
@@ -1036,13 +1044,10 @@ TEST_CASE("controller: the guard holds compensation within the drift the probes 
     p.guard = guard;
     p.acl_linear_um = 2.0;  // the model explains this plant: no breach, and a hold beyond 2 µm is an event
     Driver d(p);
-    // Just after the probe at 6 h (with the guard its first check took the first Post-CP probe at 2.5 h:
-    // the probes are at 3.5, 4.5, 5.5 h, and 6 h is 5.5 h).
-    const double last_probe_s = guard ? 5.5 * kHour : 6 * kHour;
-    d.run_until(last_probe_s + kMinute);
+    d.run_until(6 * kHour + kMinute);  // just after the probe at 6 h
     REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());
     const ControllerState before = d.controller.state();
-    REQUIRE(before.probes.back().time_s == last_probe_s);
+    REQUIRE(before.probes.back().time_s == 6 * kHour);
     const double anchor = before.probes.back().errors(0);
     const double anchor_s = before.probes.back().time_s;
     const double rate = fastest_drift(before, 1 * kHour);  // probes at least 1 h apart
