@@ -107,6 +107,25 @@ std::string fmt(double v, int precision = 2) {
   return buf;
 }
 
+// " (the mean of 3 of 4 outputs; E_X0C has no P99: no plausible measurement after CP)" where some output of `kind` has no
+// P99 and the mean is over the others, so that a recording with an output left out does not read as
+// the better one; "" where every output of that kind counts.
+std::string mean_coverage(const runtime::ReplayReport& r, ErrorKind kind) {
+  int of_kind = 0;
+  std::vector<std::string> missing;
+  for (const auto& o : r.outputs) {
+    if (o.kind != kind) continue;
+    ++of_kind;
+    if (std::isnan(o.P99)) missing.push_back(o.name);
+  }
+  if (missing.empty() || static_cast<int>(missing.size()) == of_kind) return {};
+  std::string names;
+  for (const auto& m : missing) names += (names.empty() ? "" : ", ") + m;
+  return " (the mean of " + std::to_string(of_kind - static_cast<int>(missing.size())) + " of " +
+         std::to_string(of_kind) + " outputs; " + names + (missing.size() == 1 ? " has" : " have") +
+         " no P99: no plausible measurement after CP)";
+}
+
 void print_report(std::ostream& os, const std::string& title, const runtime::ReplayReport& r) {
   os << title << "\n";
   os << "  duration " << fmt(r.duration_s / 3600.0, 1) << " h, CP ended at "
@@ -127,10 +146,10 @@ void print_report(std::ostream& os, const std::string& title, const runtime::Rep
   }
   os << "  mean P99 linear: ALC " << fmt(r.mean_p99(ErrorKind::Linear)) << " µm, baseline "
      << fmt(r.mean_p99(ErrorKind::Linear, true)) << " µm, uncompensated "
-     << fmt(r.mean_p99_uncompensated(ErrorKind::Linear)) << " µm\n";
+     << fmt(r.mean_p99_uncompensated(ErrorKind::Linear)) << " µm" << mean_coverage(r, ErrorKind::Linear) << "\n";
   os << "  mean P99 angular: ALC " << fmt(r.mean_p99(ErrorKind::Angular)) << " µm/m, baseline "
      << fmt(r.mean_p99(ErrorKind::Angular, true)) << " µm/m, uncompensated "
-     << fmt(r.mean_p99_uncompensated(ErrorKind::Angular)) << " µm/m\n";
+     << fmt(r.mean_p99_uncompensated(ErrorKind::Angular)) << " µm/m" << mean_coverage(r, ErrorKind::Angular) << "\n";
   for (const auto& b : r.baselines) {
     std::snprintf(line, sizeof line, "  %-6s mean P99 linear %8s µm, angular %8s µm/m", b.name.c_str(),
                   fmt(b.mean_p99(ErrorKind::Linear)).c_str(), fmt(b.mean_p99(ErrorKind::Angular)).c_str());

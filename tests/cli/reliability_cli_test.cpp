@@ -187,6 +187,14 @@ TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set asi
                                                 "(--plausible-lin, --plausible-ang) were left out of the indicators; "
                                                 "the first: E_X0C at time_s "));
   CHECK_THAT(good.err, !Catch::Matchers::Contains("left out of the indicators"));
+  // The table's mean of the linear errors is over the three left: it says so, where the clean run's
+  // mean of four says nothing (the faulty recording would read as the better one).
+  const CliRun bad_text = run("replay \"" + faulty.string() + "\"");
+  const CliRun good_text = run("replay \"" + clean.string() + "\"");
+  CHECK_THAT(bad_text.out, Catch::Matchers::Contains("µm (the mean of 3 of 4 outputs; E_X0C has no P99: no plausible "
+                                                     "measurement after CP)\n"));
+  CHECK_THAT(bad_text.out, !Catch::Matchers::Contains("µm/m (the mean of"));
+  CHECK_THAT(good_text.out, !Catch::Matchers::Contains("(the mean of"));
 
   // A limit below the readings sets them aside too; a loose limit value is a usage error.
   const CliRun tight = run("replay \"" + clean.string() + "\" --json --plausible-ang 20");
