@@ -223,8 +223,8 @@ void write_csv(const std::string& file, const study::StudyInfo& info, const std:
 // Before anything is computed: --csv - and --json cannot share stdout; a file must be writable.
 void check_csv_option(const std::string& csv, bool json) {
   if (csv == kStdout && json) throw UsageError("--csv - and --json both write to stdout: give --csv a file");
-  if (const std::string problem = csv.empty() || csv == kStdout ? "" : io::output_file_problem(csv); !problem.empty())
-    throw UsageError("--csv " + csv + ": " + problem);
+  // Exit 1 as every output that cannot be written (README: "refused (exit 1)"), not a usage error.
+  if (csv != kStdout) refuse_unwritable_output("--csv", csv);
 }
 
 void print_analysis(const study::Analysis& analysis, const study::StudyInfo& info, bool json, const std::string& csv) {

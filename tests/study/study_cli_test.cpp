@@ -174,8 +174,8 @@ TEST_CASE("study writes rows to CSV and SQLite, and report gives the same rows a
     const auto res = run_alc("study --grid " + grid.string() + " " + files() + " --csv " +
                                  (dir() / "no_such_dir" / "rows.csv").string(),
                              "study_cli");
-    CHECK(res.exit_code == 2);
-    CHECK_THAT(res.err, Catch::Contains("--csv ") && Catch::Contains("no_such_dir") &&
+    CHECK(res.exit_code == 1);  // as replay --residuals and simulate --out (README: refused, exit 1)
+    CHECK_THAT(res.err, Catch::Contains("--csv: cannot write '") && Catch::Contains("no_such_dir") &&
                             Catch::Contains("No such file or directory"));
     CHECK(res.err.find("computed") == std::string::npos);  // the progress line never came
   }
