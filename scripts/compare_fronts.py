@@ -59,14 +59,19 @@ def rows(path):
             if col["case"] > col["status"]:
                 raise SystemExit(f"{path}:1: not a study CSV of `alc study --csv`: `status` comes before `case`")
             params = header[col["case"] + 1:col["status"]]
+            # The columns before the per-output ones (6 per output: PV, RMSE, P99, SMAPE,
+            # P99_uncompensated, measurements). fronts.sh joins the rows of every recording under the
+            # first part's header, so a recording with other outputs (S16: 5, A-D: 7) has rows of
+            # another length; each row must still hold the fixed columns and whole outputs.
+            fixed = col["uncompensated_P99_angular"] + 1 if "uncompensated_P99_angular" in col else len(header)
             seen = set()
             for row in reader:
                 if not row:
                     continue  # a blank line
-                if len(row) != len(header):
-                    raise SystemExit(f"{path}:{reader.line_num}: {len(row)} fields, the header has {len(header)} "
-                                     f"(a row cut short, or a file cut mid-row?)")
-                r = dict(zip(header, row))  # a header repeated inside the file has status "status": left out below
+                if len(row) < fixed or (len(row) - fixed) % 6 != 0:
+                    raise SystemExit(f"{path}:{reader.line_num}: {len(row)} fields, where a row holds {fixed} and 6 per "
+                                     f"output (a row cut short, or a file cut mid-row?)")
+                r = dict(zip(header[:fixed], row))  # a header repeated inside has status "status": left out below
                 if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
                     continue
                 try:
