@@ -425,6 +425,7 @@ void run_study_command(const StudyArgs& a) {
 
 void run_merge(const MergeArgs& a) {
   if (a.shards.empty()) throw UsageError("study merge: give the shard files");
+  if (a.out == "-") throw UsageError("--out is the merged study file: '-' (stdout) is not offered");
   std::optional<storage::StudyHeader> first;
   std::vector<storage::StudyRowRecord> rows;
   std::map<std::pair<std::int64_t, std::int64_t>, std::string> owner;

@@ -519,23 +519,26 @@ double Controller::next_due(double time_s) const { return schedule_->next_due(sc
 void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason,
                        const std::string& interval_reason, bool burst_model) {
   change_phase(to, time_s, out, reason);
-  set_interval(schedule_->interval(to), time_s, out, interval_reason);
-  schedule_next(time_s, out);
   // The guard's first check: a model fitted on a burst of probes (the CP's, an NG burst's) explains
   // every one of them in-sample, and how it predicts beyond the burst no probe has judged yet; under a
-  // fixed interval the next probe comes at half of it. A schedule that asks the model's uncertainty at
-  // every sample (adaptive) decides its own first interval; the paper's literal loop (no refit on a
-  // probe within the ACL) keeps seed 004's schedule too.
-  if (!burst_model || !params_.guard || !params_.refit_on_probe || to != Phase::PostCalibration ||
-      !std::isfinite(params_.post_cp_interval_s) || schedule_->checks_each_sample())
-    return;
+  // fixed interval the next probe comes at half of it (announced alone: the NC reads every interval).
+  // A schedule that asks the model's uncertainty at every sample (adaptive) decides its own first
+  // interval; the paper's literal loop (no refit on a probe within the ACL) keeps seed 004's schedule.
   const double first_s = kFirstCheckFraction * params_.post_cp_interval_s;
-  if (!(time_s + first_s < state_.next_probe_due_s)) return;
-  state_.next_probe_due_s = time_s + first_s;
-  set_interval(first_s, time_s, out,
-               "the guard's first check of the model fitted on the " +
-                   std::string(reason.rfind("calibration", 0) == 0 ? "CP" : "NG") +
-                   " probes: half the Post-CP interval");
+  if (burst_model && params_.guard && params_.refit_on_probe && to == Phase::PostCalibration &&
+      std::isfinite(params_.post_cp_interval_s) && !schedule_->checks_each_sample() &&
+      first_s < schedule_->interval(to)) {
+    set_interval(first_s, time_s, out,
+                 "the guard's first check of the model fitted on the " +
+                     std::string(reason.rfind("calibration", 0) == 0 ? "CP" : "NG") +
+                     " probes: half the Post-CP interval");
+    state_.schedule_since_s = time_s;
+    state_.schedule_prediction = state_.prediction;
+    state_.next_probe_due_s = time_s + first_s;
+    return;
+  }
+  set_interval(schedule_->interval(to), time_s, out, interval_reason);
+  schedule_next(time_s, out);
 }
 
 Eigen::VectorXd Controller::thermal_errors(const ProbeMeasurement& probe) const {
@@ -901,9 +904,10 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
         break;
       }
       const bool update = step == probing::NgStep::UpdateAndLeave;
-      if (update) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+      const bool fitted =
+          update && reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
-            "Post-CP interval", update);
+            "Post-CP interval", fitted);
       break;
     }
   }

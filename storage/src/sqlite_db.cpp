@@ -498,11 +498,16 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   // after alc study merge, two beside every history after alc report). Where no FILE-wal lies beside
   // the file (no writer running, none killed) and this user may write the file and its directory, a
   // reader opens it read-write with query_only set below, which refuses every change through SQL.
-  // With a FILE-wal present the reader stays read-only and leaves the writer's files alone.
+  // With a FILE-wal present the reader stays read-only and leaves the writer's files alone; with a
+  // FILE-journal present (a rollback journal: a file of another program, or one killed mid-write) too,
+  // since a read-write connection would roll the journal back into the file. A writer that starts
+  // after this check and closes before the reader leaves its frames for the reader's close to copy into
+  // the file (SQLite's checkpoint: no record is changed or lost).
   bool read_write = write;
   if (!write && !immutable && !wal_in_readonly_dir) {
-    std::error_code ec;
-    read_write = !fs::exists(fs::path(file.string() + "-wal"), ec) && !ec &&
+    std::error_code ec1, ec2;
+    read_write = !fs::exists(fs::path(file.string() + "-wal"), ec1) && !ec1 &&
+                 !fs::exists(fs::path(file.string() + "-journal"), ec2) && !ec2 &&
                  ::access(parent.c_str(), W_OK) == 0 && !io::read_only_file(file);
   }
   int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;

@@ -74,6 +74,16 @@ TEST_CASE("alc --log-file that is a file the command reads or writes is refused 
   CHECK_THAT(r.err, Catch::Contains("alc replay's --db journal"));
   CHECK_FALSE(fs::exists(made));
   CHECK_FALSE(fs::exists(dir / "made.sqlite-wal"));
+  // A name the log rotates to (FILE.1 ... FILE.N): the first rotation would rename the log over the history.
+  r = run("--log-file " + quoted(dir / "made") + " --log-max-bytes 200 replay --case A --db " + quoted(dir / "made.1"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("rotates to") && Catch::Contains("alc replay's --db"));
+  CHECK_FALSE(fs::exists(dir / "made.1"));
+  // Beyond the files kept, no rotation reaches it.
+  r = run("--log-file " + quoted(dir / "made") + " --log-max-files 1 replay --case A --db " + quoted(dir / "made.2"));
+  CHECK(r.exit_code == 0);
+  fs::remove(dir / "made.2");
+  fs::remove(dir / "made");
   // A log beside them is fine.
   CHECK(run("--log-file " + quoted(dir / "alc.log") + " db info " + quoted(history)).exit_code == 0);
 }

@@ -611,6 +611,15 @@ TEST_CASE("an option that writes a file or directory refuses '-' rather than mak
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Matchers::Contains("--out writes a file; '-' (stdout) is not offered"));
   CHECK(r.out.empty());
+  // A database or a directory: --db of replay and study, study merge --out, nc --spool-dir.
+  for (const std::string& args : std::vector<std::string>{"replay --case A --db -", "study --grid paper --case A --db -",
+                                 "study merge --out - \"" + db.string() + "\"",
+                                 "nc --dialect linuxcnc --sink spool --spool-dir -"}) {
+    INFO(args);
+    r = alc(args);
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Matchers::Contains("'-' (stdout) is not offered"));
+  }
   CHECK_FALSE(fs::exists(dash));
   fs::remove_all(dir);
 }

@@ -767,3 +767,28 @@ TEST_CASE("a version-4 database is migrated to version 5: its runs kept, no indi
   CHECK(reader.indicators(next)->report_json == R"({"outputs":{}})");
   CHECK(check_history(file).ok());
 }
+
+TEST_CASE("a reader leaves a hot rollback journal and the file it belongs to as they are", "[storage]") {
+  // A file of another program, or one killed mid-write, in rollback-journal mode: a read-write
+  // connection would roll the journal back into the file. The reader opens it read-only and refuses it.
+  ScratchDir dir;
+  const auto live = dir / "live.db", hot = dir / "hot.db";
+  RawDb raw(live);
+  REQUIRE(raw.exec("PRAGMA journal_mode = DELETE; CREATE TABLE customers (name TEXT); "
+                   "INSERT INTO customers VALUES ('x');") == SQLITE_OK);
+  REQUIRE(raw.exec("INSERT INTO customers SELECT hex(randomblob(500)) FROM "
+                   "(WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n WHERE i < 400) SELECT i FROM n);") ==
+          SQLITE_OK);
+  // A transaction larger than the cache spills its pages into the file (the journal synced first); the
+  // copies of the file and its journal while it is open: a hot journal (no lock on the copy).
+  REQUIRE(raw.exec("PRAGMA cache_size = 2; BEGIN; UPDATE customers SET name = 'y' || name;") == SQLITE_OK);
+  std::filesystem::copy_file(live, hot);
+  REQUIRE(std::filesystem::exists(live.string() + "-journal"));
+  std::filesystem::copy_file(live.string() + "-journal", hot.string() + "-journal");
+  raw.exec("ROLLBACK");
+  const std::string file_before = test::read_bytes(hot), journal_before = test::read_bytes(hot.string() + "-journal");
+  CHECK_THROWS_AS(HistoryReader(hot), StorageError);
+  CHECK(test::read_bytes(hot) == file_before);
+  REQUIRE(std::filesystem::exists(hot.string() + "-journal"));
+  CHECK(test::read_bytes(hot.string() + "-journal") == journal_before);
+}
