@@ -529,7 +529,7 @@ void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std
       std::isfinite(params_.post_cp_interval_s) && !schedule_->checks_each_sample() &&
       first_s < schedule_->interval(to)) {
     set_interval(first_s, time_s, out,
-                 "the guard's first check of the model fitted on the " +
+                 "the guard's first check of the model after the " +
                      std::string(reason.rfind("calibration", 0) == 0 ? "CP" : "NG") +
                      " probes: half the Post-CP interval");
     state_.schedule_since_s = time_s;
@@ -904,10 +904,11 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
         break;
       }
       const bool update = step == probing::NgStep::UpdateAndLeave;
-      const bool fitted =
-          update && reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+      // The first check after an NG update whether its fit was accepted or not: a rejected fit leaves the
+      // model that breached in force, which the early probe judges all the more.
+      if (update) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
-            "Post-CP interval", fitted);
+            "Post-CP interval", update);
       break;
     }
   }

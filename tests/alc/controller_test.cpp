@@ -139,7 +139,7 @@ TEST_CASE("controller: the guard's first check takes the first probe after CP an
   CHECK(intervals[0].interval_s == 5 * kMinute);
   CHECK(intervals[1].interval_s == 30 * kMinute);
   CHECK(intervals[1].time_s == 2 * kHour);
-  CHECK(intervals[1].reason == "the guard's first check of the model fitted on the CP probes: half the Post-CP interval");
+  CHECK(intervals[1].reason == "the guard's first check of the model after the CP probes: half the Post-CP interval");
   CHECK(d.controller.state().next_probe_due_s == 2 * kHour + 30 * kMinute);
   d.run_until(2 * kHour + 31 * kMinute);
   intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);

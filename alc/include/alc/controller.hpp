@@ -265,8 +265,9 @@ class Controller {
   DriftBound drift_bound(Eigen::Index i, double time_s) const;
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
   // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
-  // burst_model: a model was just fitted on a burst of probes (CP end, NG end with an update that the
-  // fit did not reject): the guard's first check brings the next probe forward (docs/adaptive.md).
+  // burst_model: a burst of probes just ended with an identification (CP end, NG end with an update;
+  // after NG also when the fit was rejected and the previous model stays): the guard's first check
+  // brings the next probe forward (docs/adaptive.md).
   void enter(Phase to, double time_s, ControllerOutput& out, const std::string& reason, const std::string& interval_reason,
              bool burst_model = false);
   probing::ScheduleContext schedule_context(double time_s) const;
