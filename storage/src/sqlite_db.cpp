@@ -465,8 +465,9 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   // (no writer is running, and none can start there) the file alone is the whole database: open it
   // immutable (no locks, no -shm). With a FILE-wal present the normal open is tried and SQLite's
   // answer is reported (the WAL may hold committed records the file lacks).
+  const bool parent_writable = ::access(parent.c_str(), W_OK) == 0;
   bool immutable = false, wal_in_readonly_dir = false;
-  if (!write && ::access(parent.c_str(), W_OK) != 0) {
+  if (!write && !parent_writable) {
     std::error_code ec;
     immutable = !fs::exists(fs::path(file.string() + "-wal"), ec);
     wal_in_readonly_dir = !immutable;
@@ -485,7 +486,7 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
                          "cannot create the database: directory '" + parent.string() + "' is not writable");
   } else if (write) {
     // WAL needs FILE-wal and FILE-shm beside the file.
-    if (::access(parent.c_str(), W_OK) != 0)
+    if (!parent_writable)
       throw StorageError(StorageErrorKind::ReadOnly, file,
                          "directory '" + parent.string() + "' is not writable (the WAL journal lives beside the file)");
     if (io::read_only_file(file))
@@ -504,11 +505,10 @@ std::unique_ptr<Database> open_database(const fs::path& file, const OpenOptions&
   // after this check and closes before the reader leaves its frames for the reader's close to copy into
   // the file (SQLite's checkpoint: no record is changed or lost).
   bool read_write = write;
-  if (!write && !immutable && !wal_in_readonly_dir) {
+  if (!write && parent_writable) {
     std::error_code ec1, ec2;
     read_write = !fs::exists(fs::path(file.string() + "-wal"), ec1) && !ec1 &&
-                 !fs::exists(fs::path(file.string() + "-journal"), ec2) && !ec2 &&
-                 ::access(parent.c_str(), W_OK) == 0 && !io::read_only_file(file);
+                 !fs::exists(fs::path(file.string() + "-journal"), ec2) && !ec2 && !io::read_only_file(file);
   }
   int flags = SQLITE_OPEN_NOMUTEX | SQLITE_OPEN_EXRESCODE;
   flags |= read_write ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY;

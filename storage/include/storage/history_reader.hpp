@@ -28,7 +28,7 @@ class HistoryReader {
   // ALC schema versions are read as they are (tables added later read as empty). In a directory it
   // cannot write to and with no FILE-wal beside the file, the file is opened immutable (read-only,
   // no locks, no -shm), so a history on read-only media or in another user's directory reads. Every
-  // reader sets query_only; one that finds no FILE-wal and may write the file and its directory
+  // reader sets query_only; one that finds no FILE-wal or FILE-journal and may write the file and its directory
   // opens it read-write, so that closing it removes the -wal and -shm it made (docs/storage.md).
   explicit HistoryReader(const std::filesystem::path& path);
   ~HistoryReader();
