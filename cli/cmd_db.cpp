@@ -145,6 +145,24 @@ void run_bench(const storage::BenchOptions& options, const std::string& dir) {
   std::cout << "\n";
 }
 
+// k when `value` names FILE.k of the log file `log` (the same directory after resolving symlinks and
+// `.`/`..`, its name FILE.k with k a whole number from 1), else 0.
+std::size_t rotation_of(const std::string& log, const std::string& value) {
+  namespace fs = std::filesystem;
+  std::error_code ec1, ec2;
+  const fs::path l = fs::weakly_canonical(fs::absolute(fs::path(log), ec1), ec1);
+  const fs::path v = fs::weakly_canonical(fs::absolute(fs::path(value), ec2), ec2);
+  if (ec1 || ec2 || l.parent_path() != v.parent_path()) return 0;
+  const std::string base = l.filename().string() + ".", name = v.filename().string();
+  if (name.size() <= base.size() || name.compare(0, base.size(), base) != 0 || name.size() - base.size() > 9) return 0;
+  std::size_t k = 0;
+  for (std::size_t i = base.size(); i < name.size(); ++i) {
+    if (name[i] < '0' || name[i] > '9') return 0;
+    k = k * 10 + static_cast<std::size_t>(name[i] - '0');
+  }
+  return name[base.size()] == '0' ? 0 : k;
+}
+
 }  // namespace
 
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
@@ -166,6 +184,16 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
                        (*suffix ? std::string(" journal '") + database + suffix + "'" : " '" + database + "'") +
                        " itself; " + consequence + "; choose another " + option + " file");
   }
+}
+
+void refuse_log_over(const std::string& option, const std::string& log, std::size_t max_files,
+                     const std::string& value, const std::string& what) {
+  refuse_output_over_input(option, log, value, what, "log lines would be written into it");
+  // The names the log rotates to (FILE.1 ... FILE.N): a rotation would rename the log over it.
+  if (const auto k = rotation_of(log, value); k >= 1 && k <= max_files)
+    throw UsageError(option + " '" + log + "' rotates to '" + value + "', which is " + what +
+                     ": a rotation would replace it with the log; choose another " + option + " file" +
+                     (option == "--log-file" ? " or --log-max-files" : ""));
 }
 
 void refuse_unwritable_output(const std::string& option, const std::string& target) {

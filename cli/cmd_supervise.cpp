@@ -1,6 +1,11 @@
 // alc supervise: the supervisor beside a machine on an MQTT broker (supervisor/, docs/supervisor.md).
 #include <atomic>
 #include <csignal>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "alc_version.hpp"
 #include "commands.hpp"
@@ -16,6 +21,17 @@ namespace {
 std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
 
+// The files a supervisor reads and writes, as (what, path), which no log may be.
+std::vector<std::pair<std::string, std::string>> files_of(const supervisor::SupervisorConfig& config) {
+  const auto text = [](const std::optional<std::filesystem::path>& p) { return p ? p->string() : std::string(); };
+  return {{"the configuration", config.file.string()},
+          {"[history] db", config.history.db.string()},
+          {"[history] db's inbox", config.history.db.string() + ".inbox"},
+          {"[mqtt] password_file", text(config.mqtt.password_file)},
+          {"[mqtt] tls_ca_file", text(config.mqtt.tls_ca_file)},
+          {"[nc] machine", text(config.nc.machine)}};
+}
+
 void run_supervise(const std::string& file) {
   supervisor::SupervisorConfig config;
   try {
@@ -23,15 +39,29 @@ void run_supervise(const std::string& file) {
   } catch (const supervisor::ConfigError& e) {
     throw UsageError(e.what());
   }
+  if (config.log.file)
+    for (const auto& [what, path] : files_of(config))
+      try {
+        refuse_log_over("[log] file", *config.log.file, log::Options{}.max_files, path, what);
+      } catch (const UsageError& e) {
+        throw UsageError(file + ": key 'log.file': " + e.what());
+      }
+  const log::Options given = log::configured();  // alc --log-level/--log-file, before the command
   if (config.log.level || config.log.file) {
-    log::Options o;
+    // [log] takes the place of alc's --log-level and --log-file where it sets them; what it leaves out
+    // stays as given (a [log] level alone keeps the --log-file).
+    log::Options o = given;
     o.level = spdlog::level::info;
     if (config.log.level) {
       const auto level = log::parse_level(*config.log.level);
       if (!level) throw UsageError(file + ": key 'log.level', value \"" + *config.log.level + "\": not a level");
       o.level = *level;
     }
-    if (config.log.file) o.file = *config.log.file;
+    if (config.log.file) {
+      o.file = *config.log.file;
+      o.max_file_bytes = log::Options{}.max_file_bytes;
+      o.max_files = log::Options{}.max_files;
+    }
     try {
       log::configure(o);
     } catch (const std::runtime_error& e) {  // a log file that cannot be opened: a configuration error
@@ -54,13 +84,27 @@ void run_supervise(const std::string& file) {
                        "; or give another [history] db)");
     }
   } catch (const std::exception& e) {
-    // Why it stopped, also in [log] file (a service's stderr may reach no one); stderr gets it from main.
-    if (config.log.file) log::get("supervisor")->critical("stopped: {}", e.what());
+    // Why it stopped, also in the log file ([log] file or --log-file: a service's stderr may reach no one); stderr gets it from main.
+    if (!log::configured().file.empty()) log::get("supervisor")->critical("stopped: {}", e.what());
     throw;
   }
 }
 
 }  // namespace
+
+void refuse_log_over_supervised_files(const CLI::App& app, const std::string& log_file, std::size_t max_files) {
+  const CLI::App* cmd = app.get_subcommand("supervise");
+  if (log_file.empty() || cmd->count() == 0 || cmd->get_option("--config")->results().empty()) return;
+  const std::string file = cmd->get_option("--config")->results().front();
+  supervisor::SupervisorConfig config;
+  try {
+    config = supervisor::read_supervisor_config(file);
+  } catch (const supervisor::ConfigError&) {
+    return;  // the command reports it
+  }
+  for (const auto& [what, path] : files_of(config))
+    refuse_log_over("--log-file", log_file, max_files, path, file + "'s " + what);
+}
 
 void add_supervise_command(CLI::App& app) {
   auto file = std::make_shared<std::string>();

@@ -29,6 +29,16 @@ struct ExitStatus : std::runtime_error {
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
                                  const std::string& database, const std::string& what,
                                  const std::string& consequence = "writing there would replace it");
+// The log file `log` (rotating to FILE.1 ... FILE.`max_files`) against a file the command uses,
+// `value` (`what`: "alc replay's --db"): UsageError when the log is that file or one of its SQLite
+// journals (log lines would be written into it) or a name it rotates to (a rotation would replace
+// it). `option` names where the log was given: "--log-file", "[log] file".
+void refuse_log_over(const std::string& option, const std::string& log, std::size_t max_files,
+                     const std::string& value, const std::string& what);
+// `alc --log-file LOG supervise --config FILE`: refuse_log_over for every file FILE names (the history,
+// its inbox, the password and CA files, the machine config, FILE itself), before the log is opened.
+// Nothing when supervise is not the command or FILE cannot be read (the command says why).
+void refuse_log_over_supervised_files(const CLI::App& app, const std::string& log_file, std::size_t max_files);
 // Before long work whose result goes to `target`: std::runtime_error "OPTION: cannot write 'TARGET':
 // why" when io::output_file_problem knows it cannot be written there; UsageError for "-" (an option
 // that writes a file offers no stdout: "-" would be a file of that name). Nothing for an empty target.

@@ -54,24 +54,6 @@ void refuse_empty_values(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_empty_values(*sub);
 }
 
-// k when `value` names FILE.k of the log file `log` (the same directory after resolving symlinks and
-// `.`/`..`, its name FILE.k with k a whole number from 1), else 0.
-std::size_t rotation_of(const std::string& log, const std::string& value) {
-  namespace fs = std::filesystem;
-  std::error_code ec1, ec2;
-  const fs::path l = fs::weakly_canonical(fs::absolute(fs::path(log), ec1), ec1);
-  const fs::path v = fs::weakly_canonical(fs::absolute(fs::path(value), ec2), ec2);
-  if (ec1 || ec2 || l.parent_path() != v.parent_path()) return 0;
-  const std::string base = l.filename().string() + ".", name = v.filename().string();
-  if (name.size() <= base.size() || name.compare(0, base.size(), base) != 0 || name.size() - base.size() > 9) return 0;
-  std::size_t k = 0;
-  for (std::size_t i = base.size(); i < name.size(); ++i) {
-    if (name[i] < '0' || name[i] > '9') return 0;
-    k = k * 10 + static_cast<std::size_t>(name[i] - '0');
-  }
-  return name[base.size()] == '0' ? 0 : k;
-}
-
 // The log is appended to: a --log-file that is a file the command reads or writes (the recording
 // replayed, the history or its -wal, a grid, a config) would get log lines in the middle of its data.
 // Every value given to the command is checked, as a path, whether or not that file exists yet (the
@@ -84,13 +66,7 @@ void refuse_log_over_input(const CLI::App& app, const std::string& log_file, std
       if (o->get_type_size() <= 0) continue;
       for (const std::string& value : o->results()) {
         const std::string name = o->get_name().empty() ? o->get_name(true, false) : o->get_name();
-        alc::cli::refuse_output_over_input("--log-file", log_file, value, path + "'s " + name,
-                                           "log lines would be written into it");
-        // The names the log rotates to (FILE.1 ... FILE.N): a rotation would rename the log over it.
-        if (const auto k = rotation_of(log_file, value); k >= 1 && k <= max_files)
-          throw alc::cli::UsageError("--log-file '" + log_file + "' rotates to '" + value + "', which is " + path +
-                                     "'s " + name + ": a rotation would replace it with the log; choose another "
-                                     "--log-file file or --log-max-files");
+        alc::cli::refuse_log_over("--log-file", log_file, max_files, value, path + "'s " + name);
       }
     }
     refuse_log_over_input(*sub, log_file, max_files, path);
@@ -123,7 +99,10 @@ int run(int argc, char** argv) {
       throw alc::cli::UsageError("--log-level: '" + log_level +
                                  "' is not a level (trace, debug, info, warn, error, critical, off)");
     log_options.level = *level;
-    if (!log_options.file.empty()) refuse_log_over_input(app, log_options.file, log_options.max_files);
+    if (!log_options.file.empty()) {
+      refuse_log_over_input(app, log_options.file, log_options.max_files);
+      alc::cli::refuse_log_over_supervised_files(app, log_options.file, log_options.max_files);
+    }
     alc::log::configure(log_options);
   });
   // Commands register here, one line each.

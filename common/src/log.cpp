@@ -66,6 +66,7 @@ struct Registry {
   std::shared_ptr<spdlog::sinks::dist_sink_mt> sink = std::make_shared<spdlog::sinks::dist_sink_mt>();
   std::shared_ptr<DistinctSink> filter = std::make_shared<DistinctSink>(sink);
   spdlog::level::level_enum level = spdlog::level::warn;
+  Options options;  // of the last configure()
   std::map<std::string, std::shared_ptr<spdlog::logger>, std::less<>> loggers;
 
   Registry() {
@@ -107,7 +108,14 @@ void configure(const Options& options) {
   const std::lock_guard lock(r.mutex);
   r.sink->set_sinks(std::move(sinks));
   r.level = options.level;
+  r.options = options;
   for (auto& [name, logger] : r.loggers) logger->set_level(options.level);
+}
+
+Options configured() {
+  Registry& r = registry();
+  const std::lock_guard lock(r.mutex);
+  return r.options;
 }
 
 std::shared_ptr<spdlog::logger> get(const std::string& component) {

@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "../cli_support.hpp"
@@ -23,6 +24,10 @@ fs::path empty_history() {
   alc::storage::HistoryWriter writer(file);
   writer.close();
   return file;
+}
+
+void write(const fs::path& file, const std::string& text) {
+  std::ofstream(file, std::ios::binary) << text;
 }
 
 }  // namespace
@@ -86,6 +91,72 @@ TEST_CASE("alc --log-file that is a file the command reads or writes is refused 
   fs::remove(dir / "made");
   // A log beside them is fine.
   CHECK(run("--log-file " + quoted(dir / "alc.log") + " db info " + quoted(history)).exit_code == 0);
+}
+
+TEST_CASE("alc supervise: a log (--log-file or [log] file) over a file its configuration names is refused") {
+  // Refused before the broker is dialled (port 1 has none): the history named only inside the
+  // configuration, its inbox and the configuration itself; the history keeps its bytes.
+  const fs::path dir = alc_test::work_dir("log_cli_test") / "supervise";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  { alc::storage::HistoryWriter writer(dir / "h.sqlite"); writer.close(); }
+  const std::string before = alc_test::slurp(dir / "h.sqlite");
+  const std::string config = "machine_id = \"dmu-1\"\n[mqtt]\nhost = \"127.0.0.1\"\nport = 1\n"
+                             "[signals]\ninputs = [\"T_ENV\"]\noutputs = [\"E_X0C\"]\n"
+                             "[history]\ndb = \"h.sqlite\"\n";
+  write(dir / "s.toml", config);
+  const std::string toml = quoted(dir / "s.toml");
+  auto r = run("--log-level info --log-file " + quoted(dir / "h.sqlite") + " supervise --config " + toml);
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("--log-file '" + (dir / "h.sqlite").string() + "' is " + (dir / "s.toml").string() +
+                                    "'s [history] db '" + (dir / "h.sqlite").string() + "' itself") &&
+                        Catch::Contains("log lines would be written into it"));
+  CHECK(alc_test::slurp(dir / "h.sqlite") == before);
+  r = run("--log-file " + quoted(dir / "h.sqlite.inbox-wal") + " supervise --config " + toml);
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("[history] db's inbox journal"));
+  CHECK_FALSE(fs::exists(dir / "h.sqlite.inbox-wal"));
+  // [log] file naming the configuration itself.
+  const std::string own_log = config + "[log]\nfile = \"s5.toml\"\n";
+  write(dir / "s5.toml", own_log);
+  r = run("supervise --config " + quoted(dir / "s5.toml"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("key 'log.file'") && Catch::Contains("is the configuration '"));
+  CHECK(alc_test::slurp(dir / "s5.toml") == own_log);
+  // A log rotating to the history: the rotation would rename the log over it.
+  std::string renamed = config;
+  renamed.replace(renamed.find("h.sqlite"), 8, "h.1");
+  write(dir / "s1.toml", renamed);
+  r = run("--log-file " + quoted(dir / "h") + " supervise --config " + quoted(dir / "s1.toml"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("rotates to") && Catch::Contains("[history] db"));
+  CHECK_FALSE(fs::exists(dir / "h.1"));
+  // The configuration's own [log] file, relative to it: the key is named.
+  write(dir / "s2.toml", config + "[log]\nfile = \"h.sqlite\"\n");
+  r = run("supervise --config " + quoted(dir / "s2.toml"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains((dir / "s2.toml").string() + ": key 'log.file': [log] file '") &&
+                        Catch::Contains("is [history] db '"));
+  CHECK(alc_test::slurp(dir / "h.sqlite") == before);
+  // A log beside them passes this check: the supervisor then stops on the password file it cannot read
+  // (before the broker), and says why in the log as it says every fatal error there.
+  const std::string no_password = config + "[log]\nlevel = \"info\"\n";
+  const auto with_user = [&](std::string text) {
+    return text.replace(text.find("port = 1\n"), 9, "port = 1\nusername = \"alc\"\npassword_file = \"missing\"\n");
+  };
+  write(dir / "s3.toml", with_user(config));
+  r = run("--log-file " + quoted(dir / "alc.log") + " supervise --config " + quoted(dir / "s3.toml"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("key 'mqtt.password_file'"));
+  CHECK_THAT(alc_test::slurp(dir / "alc.log"), Catch::Contains("[critical] [supervisor] stopped: ") &&
+                                                   Catch::Contains("key 'mqtt.password_file'"));
+  // [log] level alone keeps alc's --log-file (it was dropped: the log went to stderr only).
+  fs::remove(dir / "alc.log");
+  write(dir / "s4.toml", with_user(no_password));
+  r = run("--log-file " + quoted(dir / "alc.log") + " supervise --config " + quoted(dir / "s4.toml"));
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(alc_test::slurp(dir / "alc.log"), Catch::Contains("key 'mqtt.password_file'"));
+  CHECK(alc_test::slurp(dir / "h.sqlite") == before);
 }
 
 TEST_CASE("alc --log-file in a directory that does not exist fails naming the file") {

@@ -24,6 +24,8 @@ struct Options {
 // std::runtime_error naming the file on a file that cannot be opened (its directory must exist).
 // On a throw the previous configuration stays in force.
 void configure(const Options& options);
+// The options of the last configure() that succeeded (Options{} before the first).
+Options configured();
 
 // The logger of one component, created on first use with the configured sinks; never null.
 std::shared_ptr<spdlog::logger> get(const std::string& component);
