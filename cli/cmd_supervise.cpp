@@ -84,7 +84,8 @@ void run_supervise(const std::string& file) {
                        "; or give another [history] db)");
     }
   } catch (const std::exception& e) {
-    // Why it stopped, also in the log file ([log] file or --log-file: a service's stderr may reach no one); stderr gets it from main.
+    // Why it stopped, also in the log file ([log] file or --log-file: a service's stderr may reach no
+    // one); stderr gets it from main.
     if (!log::configured().file.empty()) log::get("supervisor")->critical("stopped: {}", e.what());
     throw;
   }
