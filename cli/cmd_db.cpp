@@ -163,6 +163,11 @@ std::size_t rotation_of(const std::string& log, const std::string& value) {
   return name[base.size()] == '0' ? 0 : k;
 }
 
+// "choose another --out file", "choose another [log] file": the option, and "file" unless it says so.
+std::string another_file(const std::string& option) {
+  return "choose another " + option + (option.ends_with(" file") ? "" : " file");
+}
+
 }  // namespace
 
 void refuse_output_over_input(const std::string& option, const std::filesystem::path& target,
@@ -182,7 +187,7 @@ void refuse_output_over_input(const std::string& option, const std::filesystem::
     if (same)
       throw UsageError(option + " '" + target.string() + "' is " + what +
                        (*suffix ? std::string(" journal '") + database + suffix + "'" : " '" + database + "'") +
-                       " itself; " + consequence + "; choose another " + option + " file");
+                       " itself; " + consequence + "; " + another_file(option));
   }
 }
 
@@ -192,7 +197,7 @@ void refuse_log_over(const std::string& option, const std::string& log, std::siz
   // The names the log rotates to (FILE.1 ... FILE.N): a rotation would rename the log over it.
   if (const auto k = rotation_of(log, value); k >= 1 && k <= max_files)
     throw UsageError(option + " '" + log + "' rotates to '" + value + "', which is " + what +
-                     ": a rotation would replace it with the log; choose another " + option + " file" +
+                     ": a rotation would replace it with the log; " + another_file(option) +
                      (option == "--log-file" ? " or --log-max-files" : ""));
 }
 

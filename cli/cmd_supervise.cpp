@@ -21,6 +21,30 @@ namespace {
 std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
 
+// The configuration is read once per process: `alc --log-file` checks the files it names before the log
+// opens, and the command then runs on the same reading (a FIFO, as `--config <(envsubst < s.toml)`
+// gives, has nothing left for a second one; a file edited in between would be checked in one version
+// and run in another).
+struct ConfigReading {
+  std::string file;
+  supervisor::SupervisorConfig config;
+  std::string error;  // the ConfigError's message, if reading it failed
+};
+
+const supervisor::SupervisorConfig& read_config(const std::string& file) {
+  static std::optional<ConfigReading> reading;
+  if (!reading || reading->file != file) {
+    reading = ConfigReading{file, {}, {}};
+    try {
+      reading->config = supervisor::read_supervisor_config(file);
+    } catch (const supervisor::ConfigError& e) {
+      reading->error = e.what();
+    }
+  }
+  if (!reading->error.empty()) throw UsageError(reading->error);
+  return reading->config;
+}
+
 // The files a supervisor reads and writes, as (what, path), which no log may be.
 std::vector<std::pair<std::string, std::string>> files_of(const supervisor::SupervisorConfig& config) {
   const auto text = [](const std::optional<std::filesystem::path>& p) { return p ? p->string() : std::string(); };
@@ -33,12 +57,7 @@ std::vector<std::pair<std::string, std::string>> files_of(const supervisor::Supe
 }
 
 void run_supervise(const std::string& file) {
-  supervisor::SupervisorConfig config;
-  try {
-    config = supervisor::read_supervisor_config(file);
-  } catch (const supervisor::ConfigError& e) {
-    throw UsageError(e.what());
-  }
+  const supervisor::SupervisorConfig& config = read_config(file);
   if (config.log.file)
     for (const auto& [what, path] : files_of(config))
       try {
@@ -97,13 +116,13 @@ void refuse_log_over_supervised_files(const CLI::App& app, const std::string& lo
   const CLI::App* cmd = app.get_subcommand("supervise");
   if (log_file.empty() || cmd->count() == 0 || cmd->get_option("--config")->results().empty()) return;
   const std::string file = cmd->get_option("--config")->results().front();
-  supervisor::SupervisorConfig config;
+  const supervisor::SupervisorConfig* config = nullptr;
   try {
-    config = supervisor::read_supervisor_config(file);
-  } catch (const supervisor::ConfigError&) {
+    config = &read_config(file);
+  } catch (const UsageError&) {
     return;  // the command reports it
   }
-  for (const auto& [what, path] : files_of(config))
+  for (const auto& [what, path] : files_of(*config))
     refuse_log_over("--log-file", log_file, max_files, path, file + "'s " + what);
 }
 

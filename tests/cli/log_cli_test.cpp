@@ -1,6 +1,8 @@
 // The global logging options of `alc`: --log-level, --log-file (rotating), for every command.
 #include <catch2/catch.hpp>
+#include <sys/wait.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -136,7 +138,8 @@ TEST_CASE("alc supervise: a log (--log-file or [log] file) over a file its confi
   r = run("supervise --config " + quoted(dir / "s2.toml"));
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Contains((dir / "s2.toml").string() + ": key 'log.file': [log] file '") &&
-                        Catch::Contains("is [history] db '"));
+                        Catch::Contains("is [history] db '") && Catch::Contains("; choose another [log] file") &&
+                        !Catch::Contains("file file"));
   CHECK(alc_test::slurp(dir / "h.sqlite") == before);
   // A log beside them passes this check: the supervisor then stops on the password file it cannot read
   // (before the broker), and says why in the log as it says every fatal error there.
@@ -157,6 +160,28 @@ TEST_CASE("alc supervise: a log (--log-file or [log] file) over a file its confi
   CHECK(r.exit_code == 2);
   CHECK_THAT(alc_test::slurp(dir / "alc.log"), Catch::Contains("key 'mqtt.password_file'"));
   CHECK(alc_test::slurp(dir / "h.sqlite") == before);
+}
+
+TEST_CASE("alc --log-file supervise reads its configuration once: a pipe (--config /dev/stdin) is checked and run alike") {
+  // `envsubst < s.toml | alc --log-file alc.log supervise --config /dev/stdin`: the pipe holds the
+  // configuration once; a second reading gets nothing ("cannot be read" or an empty configuration). Read
+  // once, the supervisor gets to the password file it cannot read (before the broker) and says so, in
+  // the log too.
+  const fs::path dir = alc_test::work_dir("log_cli_test") / "pipe";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write(dir / "s.toml", "machine_id = \"dmu-1\"\n[mqtt]\nhost = \"127.0.0.1\"\nport = 1\nusername = \"alc\"\n"
+                        "password_file = " + quoted(dir / "missing") + "\n[signals]\ninputs = [\"T_ENV\"]\n"
+                        "outputs = [\"E_X0C\"]\n[history]\ndb = " + quoted(dir / "h.sqlite") + "\n");
+  const std::string cmd = "cat " + quoted(dir / "s.toml") + " | \"" + ALC_CLI_PATH + "\" --log-file " +
+                          quoted(dir / "alc.log") + " supervise --config /dev/stdin 2>" + quoted(dir / "err");
+  const int status = std::system(cmd.c_str());
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 2);
+  const std::string err = alc_test::slurp(dir / "err");
+  CHECK_THAT(err, Catch::Contains("/dev/stdin: key 'mqtt.password_file'"));
+  CHECK_THAT(alc_test::slurp(dir / "alc.log"), Catch::Contains("[critical] [supervisor] stopped: ") &&
+                                                   Catch::Contains("key 'mqtt.password_file'"));
 }
 
 TEST_CASE("alc --log-file in a directory that does not exist fails naming the file") {
