@@ -702,9 +702,9 @@ TEST_CASE("a version-2 database is migrated to the current version: its NC comma
     std::ostringstream csv;
     export_table_csv(file, "nc_commands", csv);
     CHECK(csv.str() ==
-          "run_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
-          "1,60,offsets,G10 L2 P1 X0.001,file:/out,1,,,\n"
-          "1,120,offsets,\"{\"\"x_mm\"\":9}\",file:/out,0,beyond max_offset,,\n");
+          "run_id,nc_command_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
+          "1,1,60,offsets,G10 L2 P1 X0.001,file:/out,1,,,\n"
+          "1,2,120,offsets,\"{\"\"x_mm\"\":9}\",file:/out,0,beyond max_offset,,\n");
     CHECK(check_history(file).ok());
   }
   CHECK(RawDb(file).scalar("PRAGMA user_version") == 2);

@@ -491,18 +491,18 @@ TEST_CASE("export writes CSV with one column per channel and quotes text", "[sto
   CHECK(samples.str() == "run_id,sample_index,time_s,T_ENV,T_FLUID,n_C\n1,0,0,20,21.5,0\n");
   export_table_csv(file, "probe_measurements", probes);
   CHECK(probes.str() ==
-        "run_id,time_s,phase,weight,measured_E_X0C,measured_E_A0C,compensation_E_X0C,compensation_E_A0C\n"
-        "1,60,CP,1,1.5,,0,0.25\n");
+        "run_id,probe_id,time_s,phase,weight,measured_E_X0C,measured_E_A0C,compensation_E_X0C,compensation_E_A0C\n"
+        "1,1,60,CP,1,1.5,,0,0.25\n");
   export_table_csv(file, "phase_changes", phases);
-  CHECK(phases.str() == "run_id,time_s,from_phase,to_phase,reason\n1,60,CP,NG,\"residual, \"\"big\"\"\nsecond line\"\n");
+  CHECK(phases.str() == "run_id,phase_change_id,time_s,from_phase,to_phase,reason\n1,1,60,CP,NG,\"residual, \"\"big\"\"\nsecond line\"\n");
   export_table_csv(file, "probe_interval_changes", intervals);
-  CHECK(intervals.str() == "run_id,time_s,interval_s,reason\n1,60,inf,none\n");
+  CHECK(intervals.str() == "run_id,interval_change_id,time_s,interval_s,reason\n1,1,60,inf,none\n");
   export_table_csv(file, "nc_commands", commands);
   CHECK(commands.str() ==
-        "run_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
-        "1,60,offsets,G10,file:/o,1,,1,written to /o/program.ngc\n"
-        "1,60,offsets,G10,file:/o,1,,0,\"disk, full\"\n"
-        "1,60,offsets,{},file:/o,0,refused,,\n");
+        "run_id,nc_command_id,time_s,kind,text,sink,accepted,message,delivered,delivery_message\n"
+        "1,1,60,offsets,G10,file:/o,1,,1,written to /o/program.ngc\n"
+        "1,2,60,offsets,G10,file:/o,1,,0,\"disk, full\"\n"
+        "1,3,60,offsets,{},file:/o,0,refused,,\n");
 
   std::ostringstream sink;
   CHECK_THROWS_WITH(export_table_csv(file, "runs; DROP TABLE runs", sink), Catch::Contains("no table 'runs; DROP TABLE runs'"));
