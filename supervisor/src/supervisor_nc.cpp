@@ -33,10 +33,14 @@ namespace {
 
 std::shared_ptr<spdlog::logger> logger() { return log::get("supervisor"); }
 
+// Offsets as the NC holds them: at its resolution, the values of the program text (a message says what
+// the control shows, not the unrounded target: 0.0183, not 0.0182767762).
+// (A value read back beyond what the NC format holds is shown as it is.)
 Json axis_json(const nc::AxisOffsets& o) {
-  Json j = {{"x_mm", o.x_mm}, {"y_mm", o.y_mm}, {"z_mm", o.z_mm}, {"c_deg", o.c_deg}};
-  if (o.a_deg) j["a_deg"] = *o.a_deg;
-  if (o.b_deg) j["b_deg"] = *o.b_deg;
+  const auto shown = [](double v) { return std::abs(v) <= nc::kMaxNcMagnitude ? nc::as_printed(v) : v; };
+  Json j = {{"x_mm", shown(o.x_mm)}, {"y_mm", shown(o.y_mm)}, {"z_mm", shown(o.z_mm)}, {"c_deg", shown(o.c_deg)}};
+  if (o.a_deg) j["a_deg"] = shown(*o.a_deg);
+  if (o.b_deg) j["b_deg"] = shown(*o.b_deg);
   return j;
 }
 

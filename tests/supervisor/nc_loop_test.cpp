@@ -505,6 +505,17 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
     play(sup, rows * 3 / 5, rows * 4 / 5);
     CHECK(bus.count("NcDeliveryFailed") >= 1);
     CHECK(bus.last("offsets")["axis"] == held);
+    // The event names what the NC holds as the NC has it: the values of the last program written.
+    const Json failed = bus.last_event("NcDeliveryFailed");
+    REQUIRE(failed.contains("held"));
+    const auto held_word = [&](const char* letter, const char* key) {
+      const double v = failed["held"][key].get<double>();
+      CHECK(v == nc::as_printed(v));
+      return std::string(" ") + letter + nc::format_nc_number(v);
+    };
+    CHECK("G21 G10 L2 P1" + held_word("X", "x_mm") + held_word("Y", "y_mm") + held_word("Z", "z_mm") +
+              held_word("A", "a_deg") + held_word("C", "c_deg") ==
+          last_g10);
     // Back: the offsets are stepped again from what was written last.
     fs::rename(dir / "spool.gone", dir / "spool");
     play(sup, rows * 4 / 5, rows);
