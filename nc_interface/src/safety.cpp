@@ -83,20 +83,6 @@ std::string_view verdict_name(SafetyVerdict verdict) {
 
 namespace {
 
-// The offsets the NC holds after `requested` is written on top of `current`: each value as printed
-// (as_printed), and an optional axis that `requested` leaves out keeps its value (no word is
-// written for it, so the NC keeps what it had).
-AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& requested) {
-  AxisOffsets h = requested;
-  h.x_mm = as_printed(requested.x_mm);
-  h.y_mm = as_printed(requested.y_mm);
-  h.z_mm = as_printed(requested.z_mm);
-  h.a_deg = requested.a_deg ? std::optional<double>(as_printed(*requested.a_deg)) : current.a_deg;
-  h.b_deg = requested.b_deg ? std::optional<double>(as_printed(*requested.b_deg)) : current.b_deg;
-  h.c_deg = as_printed(requested.c_deg);
-  return h;
-}
-
 bool printable(const AxisOffsets& o) {
   for (const std::optional<double>& v : {std::optional<double>(o.x_mm), std::optional<double>(o.y_mm),
                                          std::optional<double>(o.z_mm), o.a_deg, o.b_deg, std::optional<double>(o.c_deg)})
@@ -120,6 +106,17 @@ double tick_between(double from, double to, int k, int n) {
 }
 
 }  // namespace
+
+AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& requested) {
+  AxisOffsets h = requested;
+  h.x_mm = as_printed(requested.x_mm);
+  h.y_mm = as_printed(requested.y_mm);
+  h.z_mm = as_printed(requested.z_mm);
+  h.a_deg = requested.a_deg ? std::optional<double>(as_printed(*requested.a_deg)) : current.a_deg;
+  h.b_deg = requested.b_deg ? std::optional<double>(as_printed(*requested.b_deg)) : current.b_deg;
+  h.c_deg = as_printed(requested.c_deg);
+  return h;
+}
 
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested) {
   SafetyDecision d;

@@ -90,4 +90,23 @@ std::variant<ProbeResultMessage, Refusal> parse_probe_result(const std::string& 
   return m;
 }
 
+nlohmann::json offsets_json(const nc::AxisOffsets& o) {
+  nlohmann::json j = {{"x_mm", o.x_mm}, {"y_mm", o.y_mm}, {"z_mm", o.z_mm}, {"c_deg", o.c_deg}};
+  if (o.a_deg) j["a_deg"] = *o.a_deg;
+  if (o.b_deg) j["b_deg"] = *o.b_deg;
+  return j;
+}
+
+nc::AxisOffsets offsets_of(const nlohmann::json& j, int work_offset) {
+  nc::AxisOffsets o;
+  o.x_mm = j.at("x_mm").get<double>();
+  o.y_mm = j.at("y_mm").get<double>();
+  o.z_mm = j.at("z_mm").get<double>();
+  o.c_deg = j.at("c_deg").get<double>();
+  o.a_deg = j.contains("a_deg") ? std::optional<double>(j["a_deg"].get<double>()) : std::nullopt;
+  o.b_deg = j.contains("b_deg") ? std::optional<double>(j["b_deg"].get<double>()) : std::nullopt;
+  o.work_offset = work_offset;
+  return o;
+}
+
 }  // namespace alc::supervisor

@@ -37,25 +37,6 @@ Json named(const std::vector<std::string>& names, const Eigen::VectorXd& v) {
   return j;
 }
 
-Json offsets_json(const nc::AxisOffsets& o) {
-  Json j = {{"x_mm", o.x_mm}, {"y_mm", o.y_mm}, {"z_mm", o.z_mm}, {"c_deg", o.c_deg}};
-  if (o.a_deg) j["a_deg"] = *o.a_deg;
-  if (o.b_deg) j["b_deg"] = *o.b_deg;
-  return j;
-}
-
-nc::AxisOffsets offsets_of(const Json& j, int work_offset) {
-  nc::AxisOffsets o;
-  o.x_mm = j.at("x_mm").get<double>();
-  o.y_mm = j.at("y_mm").get<double>();
-  o.z_mm = j.at("z_mm").get<double>();
-  o.c_deg = j.at("c_deg").get<double>();
-  o.a_deg = j.contains("a_deg") ? std::optional<double>(j["a_deg"].get<double>()) : std::nullopt;
-  o.b_deg = j.contains("b_deg") ? std::optional<double>(j["b_deg"].get<double>()) : std::nullopt;
-  o.work_offset = work_offset;
-  return o;
-}
-
 // Infinite times as text in the supervisor's saved state (JSON has no infinity).
 Json time_json(double v) { return std::isfinite(v) ? Json(v) : Json(v > 0 ? "inf" : "-inf"); }
 double time_of(const Json& j) {

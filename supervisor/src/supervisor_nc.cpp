@@ -17,11 +17,12 @@
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
-#include "nc_interface/nc_number.hpp"
+#include "nc_interface/safety.hpp"
 #include "runtime/nc_emitter.hpp"
 #include "runtime/run.hpp"
 #include "storage/history_writer.hpp"
 #include "supervisor/inbox.hpp"
+#include "supervisor/messages.hpp"
 #include "supervisor/nc_link.hpp"
 #include "supervisor/supervisor.hpp"
 
@@ -32,17 +33,6 @@ using Json = nlohmann::json;
 namespace {
 
 std::shared_ptr<spdlog::logger> logger() { return log::get("supervisor"); }
-
-// Offsets as the NC holds them: at its resolution, the values of the program text (a message says what
-// the control shows, not the unrounded target: 0.0183, not 0.0182767762).
-// (A value read back beyond what the NC format holds is shown as it is.)
-Json axis_json(const nc::AxisOffsets& o) {
-  const auto shown = [](double v) { return std::abs(v) <= nc::kMaxNcMagnitude ? nc::as_printed(v) : v; };
-  Json j = {{"x_mm", shown(o.x_mm)}, {"y_mm", shown(o.y_mm)}, {"z_mm", shown(o.z_mm)}, {"c_deg", shown(o.c_deg)}};
-  if (o.a_deg) j["a_deg"] = shown(*o.a_deg);
-  if (o.b_deg) j["b_deg"] = shown(*o.b_deg);
-  return j;
-}
 
 }  // namespace
 
@@ -61,13 +51,13 @@ void Supervisor::on_nc_cycle() {
     std::string error = nc_synced_ ? std::string() : sync_nc(false);
     NcDelivery d;
     if (error.empty() && !same_on_nc(nc_held_, believed)) {
-      error = "not sent: the NC holds " + axis_json(nc_held_).dump() + ", not the " + axis_json(believed).dump() +
+      error = "not sent: the NC holds " + offsets_json(nc_held_).dump() + ", not the " + offsets_json(believed).dump() +
               " these commands step from; the next cycle steps from what it holds";
     } else if (error.empty()) {
       d = link_->deliver(fresh);
       error = d.error;
       for (std::size_t k = 0; k < d.delivered; ++k)
-        if (const auto* o = std::get_if<nc::AxisOffsets>(&fresh[k])) nc_held_ = *o;
+        if (const auto* o = std::get_if<nc::AxisOffsets>(&fresh[k])) nc_held_ = nc::held_after(nc_held_, *o);
     }
     const storage::RunId run = lifecycle_->run();
     if (error.empty()) {
@@ -86,7 +76,7 @@ void Supervisor::on_nc_cycle() {
       event({{"type", "NcDeliveryFailed"},
              {"time_s", controller_.state().now_s},
              {"reason", message},
-             {"held", axis_json(nc_held_)}});
+             {"held", offsets_json(nc_held_)}});
       for (std::size_t k = d.delivered; k < fresh.size(); ++k)
         if (std::holds_alternative<nc::ProbeInterval>(fresh[k])) nc_retry_ = fresh[k];
       nc_failing_ = true;
@@ -124,15 +114,15 @@ std::string Supervisor::sync_nc(bool settle_rows) {
     writer_->record_delivery(lifecycle_->run(), link_->sink_name(), same_on_nc(held, in_force),
                              same_on_nc(held, in_force)
                                  ? "read back at the start: the NC holds the offsets in force"
-                                 : "read back at the start: the NC holds " + axis_json(held).dump() + ", not these");
+                                 : "read back at the start: the NC holds " + offsets_json(held).dump() + ", not these");
   if (!same_on_nc(held, in_force)) {
     logger()->warn("the NC holds {}, not the offsets in force {}: continuing from what it holds",
-                   axis_json(held).dump(), axis_json(in_force).dump());
+                   offsets_json(held).dump(), offsets_json(in_force).dump());
     event({{"type", "NcResync"},
            {"time_s", controller_.state().now_s},
            {"reason", "read back: the NC does not hold the offsets in force; the offsets step from what it holds"},
-           {"held", axis_json(held)},
-           {"in_force", axis_json(in_force)}});
+           {"held", offsets_json(held)},
+           {"in_force", offsets_json(in_force)}});
     roll_back_nc(held);
     compensation_ = error_space_->compensation(held, compensation_);
     offsets_changed_ = true;
@@ -164,7 +154,7 @@ void Supervisor::journal_probe_compensation() {
   const Eigen::VectorXd c = error_space_->compensation(held, compensation_);
   const Json payload = {{"id", outstanding_->id},
                         {"compensation", std::vector<double>(c.data(), c.data() + c.size())},
-                        {"axis", axis_json(held)},
+                        {"axis", offsets_json(held)},
                         {"source", source}};
   entry_seq_ = inbox_->append("nc/compensation", payload.dump());
   apply_probe_compensation(payload.dump());

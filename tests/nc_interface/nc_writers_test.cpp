@@ -388,6 +388,24 @@ TEST_CASE("safety: a rotary axis left out of a line keeps its value on the contr
   CHECK(!s.to_send[0].b_deg);
 }
 
+TEST_CASE("held_after: what the NC holds after a line is each value as printed, a left-out axis as it was",
+          "[nc][safety]") {
+  // The supervisor keeps what the NC holds with it after each delivery (docs/supervisor.md, "The NC").
+  const AxisOffsets first = held_after(offsets(0, 0, 0, 0, 0), offsets(0.00015, -0.01827677, 0.00004, -0.001, 0.123456));
+  CHECK(first.x_mm == 0.0002);
+  CHECK(first.y_mm == -0.0183);
+  CHECK(first.z_mm == 0.0);
+  CHECK(first.a_deg == -0.001);
+  CHECK(first.c_deg == 0.1235);
+  AxisOffsets b_only = offsets(0, 0, 0, 0, 0);
+  b_only.a_deg.reset();
+  b_only.b_deg = 0.00049;
+  const AxisOffsets second = held_after(first, b_only);
+  CHECK(second.a_deg == -0.001);  // no A word: the control keeps it
+  CHECK(second.b_deg == 0.0005);
+  CHECK(second.x_mm == 0.0);
+}
+
 TEST_CASE("safety: the value is judged as printed at the NC resolution (issue 13 item 2)", "[nc][safety]") {
   SafetyLimits limits;
   limits.max_offset.x_mm = 0.00015;  // not a multiple of the resolution

@@ -69,6 +69,11 @@ struct SafetyDecision {
 // steps makes it safe); a value that is not finite or beyond ±1e6 is refused.
 SafetyDecision check_offsets(const SafetyLimits& limits, const AxisOffsets& current, const AxisOffsets& requested);
 
+// The offsets the NC holds after `written` (a command the gate let through) is written on top of
+// `current`: each value as printed (as_printed), and an optional axis that `written` leaves out keeps
+// its value from `current` (no word is written for it).
+AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& written);
+
 // Where the NC keeps the offsets that the commands write, which decides what max_step is judged
 // against.
 enum class OffsetRegisters {

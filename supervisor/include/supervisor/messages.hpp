@@ -3,9 +3,12 @@
 // comes in (strict: every reason a message is refused is named), nothing else. No I/O.
 #include <Eigen/Core>
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <variant>
 #include <vector>
+
+#include "nc_interface/commands.hpp"
 
 namespace alc::supervisor {
 
@@ -31,5 +34,13 @@ struct Refusal {
 std::variant<SampleMessage, Refusal> parse_sample(const std::string& payload, const std::vector<std::string>& inputs);
 std::variant<ProbeResultMessage, Refusal> parse_probe_result(const std::string& payload,
                                                              const std::vector<std::string>& outputs);
+
+// Axis offsets as the supervisor writes them ("axis" of PREFIX/offsets and of the journaled probe
+// compensation, "held" and "in_force" of the NC events, the saved state's nc_last and nc_in_force):
+// {"x_mm", "y_mm", "z_mm", "c_deg"} and "a_deg" / "b_deg" when the chain has them, each value as it is
+// (what the NC holds is kept at its resolution where it comes from a delivery, nc::held_after, and
+// as read back otherwise). offsets_of reads them back for `work_offset`.
+nlohmann::json offsets_json(const nc::AxisOffsets& o);
+nc::AxisOffsets offsets_of(const nlohmann::json& j, int work_offset);
 
 }  // namespace alc::supervisor
