@@ -10,7 +10,12 @@ std::string toml_value_text(const toml::node* node) {
   if (!node) return "";
   if (const auto* s = node->as_string()) return "\"" + s->get() + "\"";
   if (const auto* f = node->as_floating_point()) return shortest_text(f->get());
-  if (const auto* i = node->as_integer()) return std::to_string(i->get());
+  if (const auto* i = node->as_integer()) {
+    if (i->flags() == toml::value_flags::none) return std::to_string(i->get());
+    std::ostringstream o;  // hex, octal or binary: as written (0x10, not 16)
+    o << *i;
+    return o.str();
+  }
   if (const auto* b = node->as_boolean()) return b->get() ? "true" : "false";
   if (const auto* a = node->as_array()) {
     std::string text = "[";

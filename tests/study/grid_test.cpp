@@ -99,9 +99,10 @@ TEST_CASE("a bad grid names the file, line, key and value before any run") {
   CHECK(error_of("interval = [\"inf\", \"Inf\"]\n").find("value 'inf' is listed twice") != std::string::npos);
   // Hex, octal and binary TOML integers are refused, as "0x10" is (before: cp = 16).
   CHECK(error_of("cp = [0x10]\n") ==
-        "g.toml:1:7: key 'cp', value '16': write it in decimal digits (hex, octal and binary integers are not taken)");
-  CHECK(error_of("cp = [0o20]\n").find("write it in decimal digits") != std::string::npos);
-  CHECK(error_of("cp = [0b10000]\n").find("write it in decimal digits") != std::string::npos);
+        "g.toml:1:7: key 'cp', value '0x10': write it in decimal digits (hex, octal and binary integers are not taken)");
+  // The value as written, not as decimal (before: value '16').
+  CHECK(error_of("cp = [0o20]\n").find("value '0o20': write it in decimal digits") != std::string::npos);
+  CHECK(error_of("cp = [0b10000]\n").find("value '0b10000': write it in decimal digits") != std::string::npos);
 }
 
 TEST_CASE("a number written as a string takes its shortest form, the one the CSV shows") {
