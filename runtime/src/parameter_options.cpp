@@ -1,5 +1,6 @@
 #include "runtime/parameter_options.hpp"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
@@ -161,8 +162,46 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
 }
 
 namespace {
+// The text an option was given (the last of an option given twice wins), or none.
+const std::string* given_text(const OptionTexts& given, std::string_view name) {
+  for (auto it = given.rbegin(); it != given.rend(); ++it)
+    if (it->first == name) return &it->second;
+  return nullptr;
+}
+
+// A constraint of validate() ("must not be below min_interval_s") with each field it names given as its
+// option and the option's text with its unit where it was given: "must not be below min-interval = 2 h".
+std::string constraint_by_option(std::string_view constraint, const OptionTexts& given) {
+  std::string out;
+  const auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  for (std::size_t i = 0; i < constraint.size();) {
+    if (!word_char(constraint[i])) {
+      out += constraint[i++];
+      continue;
+    }
+    std::size_t j = i;
+    while (j < constraint.size() && word_char(constraint[j])) ++j;
+    const std::string_view word = constraint.substr(i, j - i);
+    const ParameterOption* named = nullptr;
+    for (const ParameterOption& o : parameter_options())
+      if (o.field == word && word.find('_') != std::string_view::npos) named = &o;
+    if (!named) {
+      out += word;
+    } else {
+      out += named->name;
+      if (const std::string* text = given_text(given, named->name)) {
+        out += " = " + *text;
+        if (named->unit != "-" && *text != "inf") out += " " + std::string(named->unit);
+      }
+    }
+    i = j;
+  }
+  return out;
+}
+
 // validate()'s "field = value: constraint" (or "identification: IdentificationOptions.field = ...") led
-// by the option that sets the field and its text, where it has one: "cp = 0 (cp_duration_s = 0): ...".
+// by the option that sets the field and its text, where it has one: "cp = 0 (cp_duration_s = 0): ...";
+// the fields the constraint names are given as their options: "... must not exceed cp = 1 h".
 std::string named_by_option(const std::string& why, const OptionTexts& given) {
   std::string_view rest = why;
   if (const auto colon = rest.find(": "); colon != std::string_view::npos && rest.substr(0, colon) == "identification")
@@ -174,10 +213,9 @@ std::string named_by_option(const std::string& why, const OptionTexts& given) {
   if (const auto dot = field.rfind('.'); dot != std::string_view::npos) field.remove_prefix(dot + 1);  // Options.x
   for (const ParameterOption& o : parameter_options()) {
     if (o.field != field) continue;
-    for (auto it = given.rbegin(); it != given.rend(); ++it)  // the last of an option given twice wins
-      if (it->first == o.name)
-        return it->first + " = " + it->second + " (" + std::string(rest.substr(0, end)) + ")" +
-               std::string(rest.substr(end));
+    if (const std::string* text = given_text(given, o.name))
+      return std::string(o.name) + " = " + *text + " (" + std::string(rest.substr(0, end)) + ")" +
+             constraint_by_option(rest.substr(end), given);
   }
   return why;
 }

@@ -483,7 +483,8 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"simulate --case A --summary --seed 1e3", "--seed must be a whole number from 0 to 18446744073709551615, got '1e3'"},
       {"replay --case A --max-interval -1", "--max-interval: '-1' is not a number > 0 or inf"},
       // What the controller refuses is named by the option and the text given (the name of a grid key and
-      // of the supervisor's [controller] key too, so without "--"), then by its field in the controller.
+      // of the supervisor's [controller] key too, so without "--"), then by its field in the controller; the
+      // other option the constraint names, by its name and text (before: by its field, "min_interval_s").
       // A value its option never takes is refused by the option, as a grid refuses it before any run.
       {"replay --case A --uncertainty-fraction 0", "alc: error: --uncertainty-fraction: '0' is not a number > 0"},
       {"replay --case A --cp 0", "--cp: '0' is not a number > 0"},
@@ -491,12 +492,14 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"replay --case A --ng-meas 6.5", "--ng-meas: '6.5' is not a whole number >= 0 or inf"},
       {"replay --case A --half-life 0", "--half-life: '0' is not a number > 0 or inf"},
       {"replay --case A --min-interval 2 --max-interval 1",
-       "invalid parameters: max-interval = 1 (max_interval_s = 3600): must not be below min_interval_s"},
+       "invalid parameters: max-interval = 1 (max_interval_s = 3600): must not be below min-interval = 2 h "
+       "(inf: no bound)"},
       {"replay --case A --cp 1 --cp-interval 90",
-       "invalid parameters: cp-interval = 90 (cp_interval_s = 5400): must not exceed cp_duration_s"},
+       "invalid parameters: cp-interval = 90 (cp_interval_s = 5400): must not exceed cp = 1 h"},
       // A default that another option makes invalid: named with its default text.
       {"replay --case A --min-interval 20",
-       "invalid parameters: max-interval = 12 (max_interval_s = 43200): must not be below min_interval_s"},
+       "invalid parameters: max-interval = 12 (max_interval_s = 43200): must not be below min-interval = 20 h "
+       "(inf: no bound)"},
       // The adaptive schedule's options under the paper's: they would be ignored, the run the default one.
       {"replay --case A --uncertainty-fraction 0.3",
        "--uncertainty-fraction is for --schedule adaptive; under --schedule paper it would be ignored"},
