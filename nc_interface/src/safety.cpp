@@ -107,14 +107,14 @@ double tick_between(double from, double to, int k, int n) {
 
 }  // namespace
 
-AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& requested) {
-  AxisOffsets h = requested;
-  h.x_mm = as_printed(requested.x_mm);
-  h.y_mm = as_printed(requested.y_mm);
-  h.z_mm = as_printed(requested.z_mm);
-  h.a_deg = requested.a_deg ? std::optional<double>(as_printed(*requested.a_deg)) : current.a_deg;
-  h.b_deg = requested.b_deg ? std::optional<double>(as_printed(*requested.b_deg)) : current.b_deg;
-  h.c_deg = as_printed(requested.c_deg);
+AxisOffsets held_after(const AxisOffsets& current, const AxisOffsets& written) {
+  AxisOffsets h = written;
+  h.x_mm = as_printed(written.x_mm);
+  h.y_mm = as_printed(written.y_mm);
+  h.z_mm = as_printed(written.z_mm);
+  h.a_deg = written.a_deg ? std::optional<double>(as_printed(*written.a_deg)) : current.a_deg;
+  h.b_deg = written.b_deg ? std::optional<double>(as_printed(*written.b_deg)) : current.b_deg;
+  h.c_deg = as_printed(written.c_deg);
   return h;
 }
 

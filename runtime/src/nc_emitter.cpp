@@ -185,7 +185,7 @@ void NcCommandObserver::handle(const Cycle& cycle) {
   } else {
     const nc::AxisLimits used = moved(in_force_, d.to_send.back());
     for (const auto axis : kAxes) budget_.*axis = std::max(0.0, budget_.*axis - used.*axis);
-    in_force_ = printed(d.to_send.back());  // what the NC holds: the values as printed
+    in_force_ = nc::held_after(in_force_, d.to_send.back());  // what the NC holds: the values as printed
   }
 }
 
