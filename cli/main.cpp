@@ -6,6 +6,7 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <streambuf>
 #include <string>
 
 #include "alc_version.hpp"
@@ -24,13 +25,51 @@ bool wrong_input(alc::storage::StorageErrorKind kind) {
          kind == K::NewerSchema;
 }
 
+// std::cout's buffer: it passes everything to the buffer cout had and keeps the errno of the first write
+// that failed, which errno itself does not keep until exit (a study whose --csv - fails goes on to its
+// analysis, and errno read at exit said "Success").
+class ErrnoKeepingBuffer : public std::streambuf {
+ public:
+  explicit ErrnoKeepingBuffer(std::streambuf* to) : to_(to) {}
+  int first_errno() const { return first_errno_; }
+  std::streambuf* target() const { return to_; }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    const int_type r = to_->sputc(traits_type::to_char_type(c));
+    if (traits_type::eq_int_type(r, traits_type::eof())) keep();
+    return r;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    const std::streamsize written = to_->sputn(s, n);
+    if (written != n) keep();
+    return written;
+  }
+  int sync() override {
+    const int r = to_->pubsync();
+    if (r != 0) keep();
+    return r;
+  }
+
+ private:
+  void keep() {
+    if (first_errno_ == 0) first_errno_ = errno;
+  }
+  std::streambuf* to_;
+  int first_errno_ = 0;
+};
+
 // A result that did not reach its reader is a failure: stdout is flushed and checked once, at exit
-// (a full disk, /dev/full, a closed pipe). `code` stays if it already says failure.
-int checked_stdout(int code) {
+// (a full disk, /dev/full, a closed pipe), and the reason is the first write's that failed. `code`
+// stays if it already says failure.
+int checked_stdout(int code, const ErrnoKeepingBuffer& buffer) {
   std::cout.flush();
   const bool failed = !std::cout || std::fflush(stdout) != 0 || std::ferror(stdout);
   if (!failed) return code;
-  std::cerr << "alc: error: writing to stdout failed: " << std::strerror(errno) << "\n";
+  const int reason = buffer.first_errno() != 0 ? buffer.first_errno() : errno;
+  std::cerr << "alc: error: writing to stdout failed"
+            << (reason != 0 ? std::string(": ") + std::strerror(reason) : std::string()) << "\n";
   return code == 0 ? 1 : code;
 }
 
@@ -149,4 +188,10 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) { return checked_stdout(run(argc, argv)); }
+int main(int argc, char** argv) {
+  ErrnoKeepingBuffer buffer(std::cout.rdbuf());
+  std::cout.rdbuf(&buffer);
+  const int code = checked_stdout(run(argc, argv), buffer);
+  std::cout.rdbuf(buffer.target());
+  return code;
+}

@@ -516,8 +516,13 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
 }
 
 TEST_CASE("a result that does not reach stdout is a failure (issue 13 item 8)") {
-  // /dev/full: every write fails with ENOSPC. Before, these exited 0.
-  for (const std::string args : {"replay --case A --json", "replay --case A", "db path", "simulate --list"}) {
+  // /dev/full: every write fails with ENOSPC. Before, these exited 0. The study writes its CSV, then its
+  // analysis to stderr: the reason is the failed write's (before: "writing to stdout failed: Success").
+  const fs::path grid = work_dir() / "full_grid.toml";
+  { std::ofstream(grid) << "interval = [2]\n"; }
+  for (const std::string& args : {std::string("replay --case A --json"), std::string("replay --case A"), std::string("db path"),
+                                 std::string("simulate --list"),
+                                 "study --grid \"" + grid.string() + "\" --case A --csv - --quiet"}) {
     INFO(args);
     const fs::path err = work_dir() / "full_err";
     const std::string cmd = std::string("\"") + ALC_CLI_PATH + "\" " + args + " >/dev/full 2>\"" + err.string() + "\"";
