@@ -377,6 +377,11 @@ void run_replay(const ReplayArgs& a) {
   }
   // The programs it writes (--nc-out, the nc_commands text of --db) name alc replay as their writer.
   machine.nc.writer = nc::ProgramWriter::AlcReplay;
+  // Without --machine they are the built-in twin's, whose work offsets are 0: a G10 L2 program says so,
+  // as it would set a real machine's work offset to the compensation alone.
+  if (a.machine.empty())
+    machine.nc.base_note = "for the built-in twin, whose work offsets are 0: not for a real machine, "
+                           "whose base alc replay --machine FILE gives";
   if (!a.nc_out.empty()) {
     if (a.resume)
       throw UsageError(

@@ -67,6 +67,7 @@ void write_linuxcnc(std::ostream& s, const std::vector<NcCommand>& commands, con
   s << "(ALC thermal compensation, written by " << program_writer_name(options.writer)
     << ": work offsets G10 L2, probe interval #"
     << options.linuxcnc_interval_parameter << " [min])\n";
+  if (!options.base_note.empty()) s << "(" << options.base_note << ")\n";
   std::vector<std::string> lines;
   for (const NcCommand& c : commands) linuxcnc_lines(c, options, lines);
   for (const std::string& l : lines) s << l << "\n";
@@ -76,6 +77,11 @@ void write_linuxcnc(std::ostream& s, const std::vector<NcCommand>& commands, con
 void write_fanuc(std::ostream& s, const std::vector<NcCommand>& commands, const DialectOptions& options) {
   s << "%\n";
   s << "O" << options.fanuc_program_number << " (ALC THERMAL COMPENSATION)\n";
+  if (!options.base_note.empty()) {
+    std::string note = options.base_note;  // Fanuc comments: upper case
+    for (char& ch : note) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    s << "(" << note << ")\n";
+  }
   // Metric input: G10 values are read in the active input unit, and ours are mm. Fanuc wants G20/G21
   // in a block of its own at the start of the program, before any coordinate system is set.
   s << "G21\n";

@@ -116,6 +116,14 @@ TEST_CASE("dialects: LinuxCNC and Fanuc write base + compensation, Sinumerik and
   CHECK_THAT(write_program(Dialect::Fanuc, c, o), Contains("G90 G10 L2 P1 X100.0100 Y-49.9800 Z19.9700 A0.0000 C90.0010"));
   CHECK_THAT(write_program(Dialect::Sinumerik, c, o), Contains("$P_UIFR[1,X,FI]=0.0100"));
   CHECK_THAT(write_program(Dialect::Heidenhain, c, o), Contains("CYCL DEF 7.1 X+0.0100"));
+  // A program written for the twin (alc replay without --machine) says so below its header, where a
+  // base is written; no note, no line.
+  CHECK(write_program(Dialect::LinuxCNC, c, o).find("\n(") == std::string::npos);
+  o.base_note = "for the built-in twin, whose work offsets are 0";
+  CHECK_THAT(write_program(Dialect::LinuxCNC, c, o), Contains("[min])\n(for the built-in twin, whose work offsets are 0)\nG21"));
+  CHECK_THAT(write_program(Dialect::Fanuc, c, o),
+             Contains("(ALC THERMAL COMPENSATION)\n(FOR THE BUILT-IN TWIN, WHOSE WORK OFFSETS ARE 0)\nG21\n"));
+  CHECK(write_program(Dialect::Sinumerik, c, o).find("twin") == std::string::npos);  // adds to the work offset
 }
 
 TEST_CASE("dialects: Sinumerik selects settable frames 5 and 6 with G505 and G506, never G58 or G59", "[nc][dialect]") {

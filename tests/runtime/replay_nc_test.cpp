@@ -328,7 +328,9 @@ TEST_CASE("replay NC output: alc replay --case A --nc-out writes commands.jsonl 
   CHECK(read_text(dir / "out" / "program.ngc").find("G10 L2 P1") != std::string::npos);
   // Its header names the command that wrote it (before: "written by alc nc").
   CHECK(read_text(dir / "out" / "program.ngc")
-            .rfind("(ALC thermal compensation, written by alc replay: work offsets G10 L2, probe interval #3001 [min])\n",
+            .rfind("(ALC thermal compensation, written by alc replay: work offsets G10 L2, probe interval #3001 [min])\n"
+                   "(for the built-in twin, whose work offsets are 0: not for a real machine, whose base alc replay "
+                   "--machine FILE gives)\n",
                    0) == 0);
   CHECK(err.find("commands") != std::string::npos);
   CHECK(err.find("refused") != std::string::npos);
@@ -411,6 +413,7 @@ TEST_CASE("replay NC output: alc replay --machine with a B-C chain writes B offs
   const std::string program = read_text(dir / "out" / "program.ngc");
   CHECK(program.find(" A") == std::string::npos);
   CHECK(program.find(" B") != std::string::npos);
+  CHECK(program.find("not for a real machine") == std::string::npos);  // the machine file gives its base
   check_rs274_applies(dir / "out", sent);
   fs::remove_all(dir);
 }

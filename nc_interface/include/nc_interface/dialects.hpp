@@ -55,6 +55,10 @@ struct DialectOptions {
   int heidenhain_interval_qr = 100;            // QR0…QR499 (retentive)
   std::string heidenhain_program_name = "ALCCOMP";  // [A-Z0-9_], 1…16 characters
   ProgramWriter writer = ProgramWriter::AlcNc;  // named in the linuxcnc program's header comment
+  // A comment line after the header of the programs that write a base (linuxcnc, fanuc), e.g. alc
+  // replay's without --machine, written for the built-in twin whose work offsets are 0. Letters, digits,
+  // spaces and , . : - only (it goes into a comment).
+  std::string base_note;
 };
 
 // Empty if usable, else which option is out of range (names the option and the value).
