@@ -259,8 +259,19 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
     if (std::filesystem::is_regular_file(status) && std::filesystem::file_size(path, ec) == 0 && !ec)
       throw StorageError(StorageErrorKind::NotFound, path, "no history to resume: the file is empty");
   }
+  // An existing file is claimed first: a writer that has it open (a supervisor) mostly holds a write
+  // transaction, and SQLite's lock would answer first, "locked by another connection", where the claim
+  // says what it is. A file the claim cannot open is left to open_for_writing, which names the cause.
+  std::error_code exists_error;
+  if (std::filesystem::exists(path, exists_error)) {
+    try {
+      impl_->claim.take(path, options.busy_timeout_ms);
+    } catch (const StorageError& e) {
+      if (e.kind == StorageErrorKind::Locked) throw;
+    }
+  }
   impl_->db = detail::open_for_writing(path, options);
-  impl_->claim.take(path, options.busy_timeout_ms);
+  if (impl_->claim.fd < 0) impl_->claim.take(path, options.busy_timeout_ms);
   impl_->prepare();
   alc::log::get("storage")->info("opened history {} for writing", path.string());
 }

@@ -455,6 +455,14 @@ TEST_CASE("a second writer on an open history waits for the first to close, then
   CHECK_THAT(e.what(), Catch::Contains(file.string()) && Catch::Contains("another writer has this history open") &&
                            Catch::Contains("busy timeout of 100 ms"));
   CHECK(HistoryReader(file).runs().size() == 1);  // readers are not kept out
+  // With a transaction open, as a supervisor mostly has (records added since its last commit): the same
+  // words (before: SQLite's "locked by another connection", whose lock answered before the claim).
+  first->add(test::sample_at(1, 100));
+  REQUIRE(first->pending() > 0);
+  const StorageError busy = error_of([&] { HistoryWriter second(file, options); });
+  CHECK(busy.kind == StorageErrorKind::Locked);
+  CHECK_THAT(busy.what(), Catch::Contains("another writer has this history open"));
+  first->commit();
   first->close();                                 // released with the database
   CHECK_NOTHROW(HistoryWriter(file, options));
   first.reset();
