@@ -261,9 +261,10 @@ HistoryWriter::HistoryWriter(const std::filesystem::path& path, WriterOptions op
   }
   // An existing file is claimed first: a writer that has it open (a supervisor) mostly holds a write
   // transaction, and SQLite's lock would answer first, "locked by another connection", where the claim
-  // says what it is. A file the claim cannot open is left to open_for_writing, which names the cause.
-  std::error_code exists_error;
-  if (std::filesystem::exists(path, exists_error)) {
+  // says what it is. Only a regular file (opening a FIFO to claim it would wait for a writer); one the
+  // claim cannot open, or anything else, is left to open_for_writing, which names the cause.
+  std::error_code regular_error;
+  if (std::filesystem::is_regular_file(path, regular_error)) {
     try {
       impl_->claim.take(path, options.busy_timeout_ms);
     } catch (const StorageError& e) {

@@ -10,6 +10,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
+#include <sys/wait.h>
 
 #include "../cli_support.hpp"
 #include "scenarios/scenario.hpp"
@@ -135,6 +137,22 @@ TEST_CASE("resume on an empty file or a dangling symbolic link is refused and cr
   std::size_t entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
   CHECK(entries == 2);  // no -wal, -shm or journal files either
+}
+
+TEST_CASE("a --db that is a named pipe is refused at once, not waited on") {
+  // The writer claims an existing history before SQLite opens it; opening a FIFO to claim it would wait
+  // for a writer of the pipe for ever (the timeout below would end it with 124).
+  const alc_test::Scratch scratch_dir = scratch("fifo_db");
+  const fs::path fifo = scratch_dir.dir / "h.sqlite";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  const fs::path err = scratch_dir.dir / "err";
+  const std::string cmd = std::string("timeout 60 \"") + ALC_CLI_PATH + "\" replay --case A --db \"" + fifo.string() +
+                          "\" >/dev/null 2>\"" + err.string() + "\" </dev/null";
+  const int status = std::system(cmd.c_str());
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 2);
+  CHECK_THAT(alc_test::slurp(err), Catch::Matchers::Contains(fifo.string()) &&
+                                       Catch::Matchers::Contains("not a regular file"));
 }
 
 TEST_CASE("an absurd but finite error column (-1e308: a sensor fault) is set aside for that output and the "
