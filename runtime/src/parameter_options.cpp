@@ -182,9 +182,10 @@ std::string constraint_by_option(std::string_view constraint, const OptionTexts&
     std::size_t j = i;
     while (j < constraint.size() && word_char(constraint[j])) ++j;
     const std::string_view word = constraint.substr(i, j - i);
-    const ParameterOption* named = nullptr;
-    for (const ParameterOption& o : parameter_options())
-      if (o.field == word && word.find('_') != std::string_view::npos) named = &o;
+    const ParameterOption* named = nullptr;  // a field is a word with '_' ("cp_duration_s"), not "guard"
+    if (word.find('_') != std::string_view::npos)
+      for (const ParameterOption& o : parameter_options())
+        if (o.field == word) named = &o;
     if (!named) {
       out += word;
     } else {

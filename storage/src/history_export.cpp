@@ -192,15 +192,13 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
   // The row's time, to name a damaged row (every table with vectors has one).
   const auto time_column = std::find_if(spec->columns.begin(), spec->columns.end(),
                                         [](const Column& c) { return std::string_view(c.sql) == "time_s"; });
-  // The row's id, the column after run_id (sample_index, probe_id, prediction_id), to name a damaged row
-  // in the reader's words ("input_samples: run 1, sample 510 (time_s 30600)"): the id its CSV row shows.
-  const bool has_id = per_run && spec->columns.size() > 1 && spec->columns[1].cell == Cell::Int;
-  const std::string id_name = !has_id ? std::string()
+  // The row's id, the column after run_id (sample_index, probe_id, prediction_id: every table with vectors
+  // has one), to name a damaged row in the reader's words ("input_samples: run 1, sample 510 (time_s
+  // 30600)"): the id its CSV row shows.
+  const std::string id_name = spec->columns.size() < 2 ? std::string()
                               : std::string_view(spec->columns[1].sql) == "sample_index" ? std::string("sample")
                                                                                           : std::string(spec->columns[1].header);
-  std::int64_t row = 0;
   while (st.step()) {
-    ++row;
     const std::int64_t run = st.column_int(0);
     first = true;
     for (std::size_t i = 0; i < spec->columns.size(); ++i) {
@@ -241,9 +239,8 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
                         ? std::string()
                         : " (time_s " + detail::format_double(st.column_double(
                                             static_cast<int>(time_column - spec->columns.begin()) + 1)) + ")";
-                const std::string which = has_id ? id_name + " " + std::to_string(st.column_int(2))
-                                                 : "row " + std::to_string(row);
-                return std::string(spec->table) + ": run " + std::to_string(run) + ", " + which + time + ": " + c.sql;
+                return std::string(spec->table) + ": run " + std::to_string(run) + ", " + id_name + " " +
+                       std::to_string(st.column_int(2)) + time + ": " + c.sql;
               });
           for (std::size_t k = 0; slots != map.slot.end() && k < values.size() && k < slots->second.size(); ++k)
             cells[static_cast<std::size_t>(slots->second[k])] = detail::format_double(values[k]);
