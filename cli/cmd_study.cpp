@@ -2,6 +2,7 @@
 // report of a study file.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -124,14 +125,22 @@ std::vector<study::StudyCase> load_cases(const StudyArgs& a) {
       if (fs::is_directory(f, ec)) throw UsageError(f + ": is a directory, not a scenario CSV");
       // A case is named by its path as given, written plainly (./a.csv and a.csv are one name, as alc
       // replay has it): the same file twice would be two cases of one name (and one row of each set
-      // counted twice in every mean).
+      // counted twice in every mean). Reached by another path (absolute, a link) or copied, it is the
+      // same recording: its content says so.
       const std::string name = fs::path(f).lexically_normal().string();
       for (const auto& c : cases)
         if (c.name == name) throw UsageError(f + ": given twice (a case is named by its file)");
-      cases.push_back({name, "file " + name, scenarios::read_scenario_csv(f), {}});
+      study::StudyCase added{name, "file " + name, scenarios::read_scenario_csv(f), {}};
+      added.content_hash = study::content_hash(added.scenario);
+      for (const auto& c : cases)
+        if (c.content_hash == added.content_hash)
+          throw UsageError(f + ": the same recording as " + c.name + " (content hash " + c.content_hash +
+                           "): it would count twice in every mean");
+      cases.push_back(std::move(added));
     }
   }
-  for (auto& c : cases) c.content_hash = study::content_hash(c.scenario);
+  for (auto& c : cases)
+    if (c.content_hash.empty()) c.content_hash = study::content_hash(c.scenario);
   return cases;
 }
 
@@ -246,11 +255,12 @@ void run_bench(const StudyArgs& a, const study::StudyInfo& info, const std::vect
   const study::StudyStats st = study::run_study(cases, info.sets, o);
   const double shared_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double rss_mb = proc_status_kb("VmHWM") / 1024.0;
-  // The sample: distinct (set, case) of valid sets, drawn with the seed.
+  // The sample: distinct (set, case) of the rows that ran (not an invalid set, nor one the case cannot
+  // run: replay would refuse those), in the grid's order, drawn with the seed.
   std::vector<std::pair<std::size_t, std::size_t>> pool;
-  for (const auto& s : info.sets)
-    if (s.error.empty())
-      for (std::size_t c = 0; c < cases.size(); ++c) pool.emplace_back(s.index, c);
+  for (const auto& r : rows)
+    if (r.ok) pool.emplace_back(static_cast<std::size_t>(r.set_index), static_cast<std::size_t>(r.case_index));
+  std::sort(pool.begin(), pool.end());
   std::mt19937_64 rng(a.bench_seed);
   std::shuffle(pool.begin(), pool.end(), rng);
   pool.resize(std::min<std::size_t>(pool.size(), static_cast<std::size_t>(a.bench_sample)));

@@ -176,7 +176,9 @@ StudyStats run_study(const std::vector<StudyCase>& cases, const std::vector<Para
     total.forks += stats.forks;
     total.samples += stats.samples;
     total.fits += stats.fits;
-    for (const StudyRow& r : rows) total.samples_alone += static_cast<std::int64_t>(cases[r.case_index].scenario.samples());
+    // Only rows that ran: an error row (an invalid set, a set the case cannot run) costs nothing either way.
+    for (const StudyRow& r : rows)
+      if (r.report) total.samples_alone += static_cast<std::int64_t>(cases[r.case_index].scenario.samples());
     if (!rows.empty() && options.on_rows) options.on_rows(std::move(rows));
   };
 

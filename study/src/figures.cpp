@@ -768,8 +768,11 @@ FiguresRendered render_figures(const StudyInfo& info, const std::vector<storage:
   out.heatmap_cp = heatmap_cp ? grid_cp(info, *heatmap_cp) : default_heatmap_cp(info, analysis);
   std::set<std::string> names;
   for (std::size_t ci = 0; ci < analysis.cases.size() && ci < info.cases.size(); ++ci) {
-    std::string name = "pareto-" + file_part(info.cases[ci].name);
-    if (!names.insert(name).second) names.insert(name += "-" + std::to_string(ci + 1));
+    // Two cases can write the same file part ('x y' and 'x_y'), and a case's own name can end as another
+    // one's suffix would ('x_y-3'): the suffix grows until the name is free.
+    const std::string base = "pareto-" + file_part(info.cases[ci].name);
+    std::string name = base;
+    for (std::size_t k = ci + 1; !names.insert(name).second; ++k) name = base + "-" + std::to_string(k);
     out.figures.push_back({name, pareto_svg(info, rows, analysis, ci)});
   }
   if (!has_axis(info, "interval") || !has_axis(info, "ng-meas")) {

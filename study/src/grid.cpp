@@ -81,18 +81,21 @@ bool is_value(const runtime::OptionTexts& options, std::string_view name, std::s
 }
 
 // Options that cannot change a run given the others (docs/study.md): without Post-CP probes there is
-// no breach, so no NG; without an NG burst (ng-interval inf, or no NG probe: ng-meas 0) the NG
-// interval, count and confirmation are never asked; the adaptive schedule's options under the paper's
-// (the default) are never read. ng-interval = inf takes precedence: with it ng-meas is the moot one.
+// no breach, so no NG, and no interval for the adaptive schedule to choose; without an NG burst
+// (ng-interval inf, or no NG probe: ng-meas 0) the NG interval, count and confirmation are never
+// asked; without refits on probes a breach is never confirmed (no-refit implies no-confirm); the
+// adaptive schedule's options under the paper's (the default) are never read. ng-interval = inf takes
+// precedence: with it ng-meas is the moot one.
 bool moot(const runtime::OptionTexts& all, std::string_view option) {
   const bool ng_option = option == "ng-interval" || option == "ng-meas" || option == "no-confirm";
-  if (ng_option && is_inf(all, "interval")) return true;
+  const bool adaptive_option =
+      option == "uncertainty-fraction" || option == "min-interval" || option == "max-interval";
+  if ((ng_option || adaptive_option) && is_inf(all, "interval")) return true;
   if ((option == "ng-meas" || option == "no-confirm") && is_inf(all, "ng-interval")) return true;
   if ((option == "ng-interval" || option == "no-confirm") && !is_inf(all, "ng-interval") &&
       is_value(all, "ng-meas", "0"))
     return true;
-  const bool adaptive_option =
-      option == "uncertainty-fraction" || option == "min-interval" || option == "max-interval";
+  if (option == "no-confirm" && is_value(all, "no-refit", "true")) return true;
   return adaptive_option && !is_value(all, "schedule", "adaptive");
 }
 

@@ -254,6 +254,21 @@ std::size_t set_of(const StudyInfo& info, const std::string& key) {
 
 }  // namespace
 
+TEST_CASE("figures: cases whose file parts collide get one figure each", "[study][figures]") {
+  // 'x y' writes x_y; case 3's first fallback, x_y-3, was case 1's own name: one figure was lost, and
+  // alc report had the id study-pareto-x_y-3 twice.
+  StudyInfo info = make_info();
+  info.cases = {{"x_y-3", "file x_y-3", "0000000000000001"},
+                {"x y", "file x y", "0000000000000002"},
+                {"x_y", "file x_y", "0000000000000003"}};
+  const alc::study::Analysis a = alc::study::analyse(info, make_rows(info));
+  REQUIRE(a.cases.size() == 3);
+  const auto rendered = alc::study::render_figures(info, make_rows(info), a, std::string("6.5"));
+  std::vector<std::string> names;
+  for (std::size_t c = 0; c < 3; ++c) names.push_back(rendered.figures.at(c).name);
+  CHECK(names == std::vector<std::string>{"pareto-x_y-3", "pareto-x_y", "pareto-x_y-4"});
+}
+
 TEST_CASE("figures: pareto plots and heat maps are well-formed SVG matching the analysis", "[study][figures]") {
   const StudyInfo info = make_info();
   REQUIRE(info.sets.size() == 10);  // per CP: interval 2 and 6 with two ng-meas each, inf once

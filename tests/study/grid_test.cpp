@@ -58,7 +58,7 @@ TEST_CASE("a TOML grid is the product of its axes in file order, plus the fixed 
   CHECK(sets[0].parameters.post_cp_interval_s == 2.5 * 3600.0);
 }
 
-TEST_CASE("options that cannot change a run are left out: ng-meas 0, and the adaptive options under the paper schedule") {
+TEST_CASE("options that cannot change a run are left out: ng-meas 0, the adaptive options under the paper schedule or without Post-CP probes, no-confirm under no-refit") {
   const auto keys = [](const std::string& toml) {
     std::vector<std::string> k;
     for (const ParameterSet& s : parse_grid(toml, "g.toml").sets()) k.push_back(s.key);
@@ -79,6 +79,18 @@ TEST_CASE("options that cannot change a run are left out: ng-meas 0, and the ada
   CHECK(keys("max-interval = [4, \"inf\"]\n") == std::vector<std::string>{""});
   CHECK(keys("max-interval = [4, \"inf\"]\n[fixed]\nschedule = \"adaptive\"\n") ==
         std::vector<std::string>{"max-interval=4", "max-interval=inf"});
+  // Without Post-CP probes the adaptive schedule has no interval to choose (before: one set per value,
+  // the same run each).
+  CHECK(keys("interval = [2, \"inf\"]\nuncertainty-fraction = [0.5, 1]\nmax-interval = [4, 8]\n[fixed]\n"
+             "schedule = \"adaptive\"\n") ==
+        std::vector<std::string>{"interval=2 uncertainty-fraction=0.5 max-interval=4",
+                                 "interval=2 uncertainty-fraction=0.5 max-interval=8",
+                                 "interval=2 uncertainty-fraction=1 max-interval=4",
+                                 "interval=2 uncertainty-fraction=1 max-interval=8", "interval=inf"});
+  // Without refits a breach is never confirmed: no-refit implies no-confirm (before: two sets, one run).
+  CHECK(keys("no-refit = [false, true]\nno-confirm = [false, true]\n") ==
+        std::vector<std::string>{"no-refit=false no-confirm=false", "no-refit=false no-confirm=true",
+                                 "no-refit=true"});
 }
 
 TEST_CASE("a bad grid names the file, line, key and value before any run") {

@@ -333,10 +333,41 @@ TEST_CASE("bad study arguments are usage errors naming the value") {
   r = run_alc("study --grid paper " + a.string() + " " + a.string(), "study_cli");
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Contains(a.string() + ": given twice"));
+  // Reached by a link or copied, it is still one recording (before: two cases, each row counted twice).
+  const fs::path link = dir() / "a-link.csv", copy = dir() / "a-copy.csv";
+  fs::remove(link);
+  fs::create_symlink(a, link);
+  fs::copy_file(a, copy, fs::copy_options::overwrite_existing);
+  for (const fs::path& other : {link, copy}) {
+    r = run_alc("study --grid paper " + a.string() + " " + other.string(), "study_cli");
+    CHECK(r.exit_code == 2);
+    CHECK_THAT(r.err, Catch::Contains(other.string() + ": the same recording as " + a.string() + " (content hash "));
+  }
   // The benchmark's options without --bench were ignored without a word.
   r = run_alc("study --grid paper --case A --bench-seed 3", "study_cli");
   CHECK(r.exit_code == 2);
   CHECK_THAT(r.err, Catch::Contains("--bench-seed requires --bench"));
+}
+
+TEST_CASE("the study benchmark compares only the rows that ran, and counts the work saved on them") {
+  // A CP longer than the recording is an error row; the benchmark replayed it anyway (a CP without end)
+  // and failed 'shared rows differ', and counted its samples as work saved (50 % here, 0 without it).
+  const fs::path with = write("bench-cp.toml", "cp = [6.5, 300]\ninterval = [2, 4]\n");
+  const fs::path without = write("bench.toml", "cp = [6.5]\ninterval = [2, 4]\n");
+  const auto saved = [](const std::string& out) {
+    const auto at = out.find("work saved by sharing:");
+    REQUIRE(at != std::string::npos);
+    return out.substr(at, out.find('\n', at) - at);
+  };
+  auto r = run_alc("study --grid " + with.string() + " " + short_case('A').string() + " --bench --bench-sample 4 --jobs 1",
+                   "study_cli");
+  CHECK(r.exit_code == 0);
+  CHECK_THAT(r.out, Catch::Contains("identical to the study's rows: 2 of 2"));
+  const auto b = run_alc("study --grid " + without.string() + " " + short_case('A').string() +
+                             " --bench --bench-sample 4 --jobs 1",
+                         "study_cli");
+  REQUIRE(b.exit_code == 0);
+  CHECK(saved(r.out) == saved(b.out));
 }
 
 TEST_CASE("SIGINT stops a study cleanly: finished rows stay, --resume completes it") {
