@@ -44,15 +44,16 @@ class Statement {
 
 }  // namespace
 
-Inbox::Inbox(const std::filesystem::path& path) : path_(path) {
+Inbox::Inbox(const std::filesystem::path& path, storage::Durability durability) : path_(path) {
   if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
     const std::string e = db_ ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
     throw std::runtime_error(path.string() + ": cannot open the inbox: " + e);
   }
   sqlite3_busy_timeout(db_, 5000);
-  // WAL with synchronous=NORMAL: a committed entry survives a killed process.
-  exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;"
+  // WAL with synchronous=NORMAL: a committed entry survives a killed process; FULL: a power loss too.
+  exec(std::string("PRAGMA journal_mode=WAL; PRAGMA synchronous=") +
+       (durability == storage::Durability::Power ? "FULL;" : "NORMAL;") +
        "CREATE TABLE IF NOT EXISTS alc_inbox(seq INTEGER PRIMARY KEY, kind TEXT NOT NULL, payload BLOB NOT NULL);"
        "CREATE TABLE IF NOT EXISTS alc_inbox_state(seq INTEGER PRIMARY KEY, state BLOB NOT NULL);"
        "CREATE TABLE IF NOT EXISTS alc_inbox_next(id INTEGER PRIMARY KEY CHECK(id = 1), seq INTEGER NOT NULL);"
@@ -68,6 +69,11 @@ void Inbox::exec(const std::string& sql) const {
     sqlite3_free(error);
     throw std::runtime_error(path_.string() + ": inbox: " + e);
   }
+}
+
+int Inbox::synchronous() const {
+  Statement s(db_, "PRAGMA synchronous", path_);
+  return s.step() ? static_cast<int>(s.integer(0)) : -1;
 }
 
 std::int64_t Inbox::next_seq() const {

@@ -139,7 +139,7 @@ Supervisor::Supervisor(const SupervisorConfig& config, Bus& bus, std::string sof
   storage::WriterOptions w;
   w.durability = config.history.durability;
   writer_ = std::make_unique<storage::HistoryWriter>(config.history.db, w);
-  inbox_ = std::make_unique<Inbox>(config.history.db.string() + ".inbox");
+  inbox_ = std::make_unique<Inbox>(config.history.db.string() + ".inbox", config.history.durability);
   begin_or_resume();
   nc_held_ = nc_->state().in_force;  // until read back (sync_nc)
 }
@@ -459,8 +459,10 @@ void Supervisor::feed(const SampleMessage& m) {
   // ask at the sample that reaches the due time, as a replay does.)
   if (!outstanding_ && !(after_timeout_ && !held_.empty()) && probing::reached(m.time_s, controller_.state().next_probe_due_s))
     request_probe(m.time_s);
-  if (!outstanding_ && held_.empty()) {
-    // A consistent point: every inbox entry up to this one is processed.
+  if (!outstanding_ && held_.empty() && !jump_) {
+    // A consistent point: every inbox entry up to this one is processed. Not while a sample far ahead
+    // waits for the next (its entry, older than a probe result that drained the held samples, would be
+    // pruned with the rest: the snapshot does not hold it).
     next_seq_ = entry_seq_ + 1;
     const std::int64_t before = snapshots_;
     lifecycle_->on_sample_done(s, controller_, controller_.state().samples);

@@ -147,6 +147,58 @@ TEST_CASE("supervisor: a sample far ahead still held when the process is killed 
   CHECK(stored);
 }
 
+TEST_CASE("supervisor: a sample far ahead held while samples wait for a probe result survives the snapshot the result brings") {
+  // Samples held behind an outstanding probe, then a jump: the result drained the held samples, the
+  // consistent point after them saved a snapshot and pruned the inbox up to the result's entry, the
+  // jump's among them. After a restart (a clean one too) the jump was gone: the sample confirming it was
+  // held as a jump of its own, the accepted sample lost.
+  Rig rig("jump-prune", 3.0);
+  rig.config.history.snapshot_every_s = 36.0;  // a snapshot at every consistent point
+  const double day = 86400.0;
+  std::size_t row = 0;
+  std::int64_t id = 0;
+  double requested = 0.0;
+  {
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");
+    for (; row < 40 && id == 0; ++row) {
+      sup.on_message("sample", rig.sample(row), 0.0);
+      const Json request = rig.bus.last("probe/request");
+      if (!request.is_null()) {
+        id = request["id"].get<std::int64_t>();
+        requested = request["requested_s"].get<double>();
+      }
+    }
+    REQUIRE(id > 0);
+    sup.on_message("sample", rig.sample(row++), 0.0);  // held: the probe is out
+    sup.on_message("sample", rig.sample(row++), 0.0);
+    sup.on_message("sample", rig.sample(row, day), 0.0);  // the machine was off for a day
+    REQUIRE(rig.bus.count("TimeJump") == 1);
+    sup.on_message("probe/result", rig.result(id, requested), 0.0);
+    REQUIRE(sup.controller().state().probe_cycles == 1);
+    CHECK(sup.counts().received == static_cast<std::int64_t>(row));
+    sup.stop();
+  }
+  supervisor::Supervisor sup(rig.config, rig.bus, "test");
+  CHECK(sup.counts().received == static_cast<std::int64_t>(row));
+  sup.on_message("sample", rig.sample(row + 1, day), 0.0);  // confirms the gap: both count
+  CHECK(sup.counts().received == static_cast<std::int64_t>(row + 2));
+  CHECK(rig.bus.count("TimeJump") == 1);  // no second jump
+  CHECK(sup.counts().rejected == 0);
+  sup.stop();
+}
+
+TEST_CASE("supervisor: durability power makes the inbox commit with an fsync as the history does") {
+  // Before, the inbox committed with synchronous=NORMAL whatever the durability: a power loss could lose
+  // a sample the broker had been told was taken.
+  for (const bool power : {false, true}) {
+    Rig rig(power ? "inbox-power" : "inbox-process", 1.0, power ? "durability = \"power\"\n" : "");
+    REQUIRE((rig.config.history.durability == storage::Durability::Power) == power);
+    supervisor::Supervisor sup(rig.config, rig.bus, "test");
+    CHECK(sup.inbox().synchronous() == (power ? 2 : 1));
+    sup.stop();
+  }
+}
+
 TEST_CASE("supervisor: a probe never answered times out once, the next request is judged from when it is asked") {
   Rig rig("probe-skip", 8.0);
   supervisor::Supervisor sup(rig.config, rig.bus, "test");

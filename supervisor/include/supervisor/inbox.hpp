@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "storage/history_writer.hpp"
+
 struct sqlite3;
 
 namespace alc::supervisor {
@@ -22,7 +24,9 @@ struct InboxEntry {
 
 class Inbox {
  public:
-  explicit Inbox(const std::filesystem::path& path);
+  // Durability as the history's: Process commits survive a killed process (synchronous=NORMAL), Power
+  // ones a power loss too (synchronous=FULL: an fsync before the broker is told the message is taken).
+  explicit Inbox(const std::filesystem::path& path, storage::Durability durability = storage::Durability::Process);
   ~Inbox();
   Inbox(const Inbox&) = delete;
   Inbox& operator=(const Inbox&) = delete;
@@ -31,6 +35,8 @@ class Inbox {
   std::int64_t append(const std::string& kind, const std::string& payload);
   // Entries with seq >= first, in order.
   std::vector<InboxEntry> from(std::int64_t first) const;
+  // SQLite's synchronous level of the inbox's connection: 1 (NORMAL) or 2 (FULL).
+  int synchronous() const;
   // The sequence number the next append gets.
   std::int64_t next_seq() const;
   // Stores the supervisor's state for the snapshot that continues at `seq` (before the snapshot is

@@ -21,6 +21,7 @@
 #include "nc_interface/commands.hpp"
 #include "runtime/driver.hpp"
 #include "supervisor/config.hpp"
+#include "supervisor/inbox.hpp"
 #include "supervisor/messages.hpp"
 
 namespace alc::runtime {
@@ -82,6 +83,7 @@ class Supervisor {
   bool stale() const { return stale_; }
   const Controller& controller() const { return controller_; }
   std::size_t held() const { return held_.size(); }
+  const Inbox& inbox() const { return *inbox_; }
 
  private:
   class Tap;
