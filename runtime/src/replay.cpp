@@ -193,7 +193,7 @@ std::string Replay::encode_state() const {
 }
 
 void Replay::restore(const storage::ControllerSnapshot& snapshot) {
-  RunState s = load_run_state(options_.db, *run_id(), snapshot.payload, scenario_.input_names.size());
+  RunState s = load_run_state(options_.db, *run_id(), snapshot, scenario_.input_names.size());
   if (s.next_index < 0 || static_cast<std::size_t>(s.next_index) > scenario_.samples())
     throw std::runtime_error(options_.db.string() + ": the snapshot continues at row " +
                              std::to_string(s.next_index) + ", beyond the " + std::to_string(scenario_.samples()) +

@@ -207,10 +207,24 @@ RunLifecycle::RunLifecycle(storage::HistoryWriter& writer, const std::filesystem
   // The latest snapshot that decodes (format, checksum): a damaged later one is named and skipped, a
   // run without any usable snapshot is refused unchanged.
   storage::ResumePoint point;
+  bool unreadable = false;
   try {
-    point = writer_.resume_run(run_, run_state_problem);
+    // The learning history's samples are read back after the records past the snapshot are deleted:
+    // judged before, so a resume that cannot read them changes nothing (before, the stop's indicators
+    // were gone and the run read 'running').
+    // A sample that cannot be read is a damaged history (exit 1), not a resume refused (exit 2).
+    const std::size_t inputs = record.input_names.size();
+    point = writer_.resume_run(run_, run_state_problem, [&](const storage::ControllerSnapshot& snap) -> std::string {
+      try {
+        load_run_state(db, run_, snap, inputs);
+      } catch (const std::exception& e) {
+        unreadable = true;
+        return e.what();
+      }
+      return {};
+    });
   } catch (const storage::StorageError& e) {
-    if (e.kind != storage::StorageErrorKind::Corrupt) throw;
+    if (e.kind != storage::StorageErrorKind::Corrupt || unreadable) throw;
     throw ResumeRefused(e.what(), run_);
   }
   for (const std::string& skipped : point.skipped)

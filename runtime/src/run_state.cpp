@@ -207,39 +207,50 @@ void restore_history(ControllerState& state, std::vector<double> time_s, InputMa
   state.history.inputs = std::move(inputs);
 }
 
-RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const std::string& payload,
+RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const storage::ControllerSnapshot& snapshot,
                         std::size_t inputs) {
-  RunState s = decode_run_state(payload);
+  RunState s = decode_run_state(snapshot.payload);
+  // The snapshot's sample index (the payload's next_index is the source's: an inbox entry for the
+  // supervisor).
+  const std::int64_t next = snapshot.next_sample_index;
   const storage::HistoryReader reader(db);
   const auto samples = reader.input_samples(run);
-  // The samples of the learning history (from history_first_index to the snapshot's count) are all
-  // stored, one per index. Those before it may have been deleted (the supervisor's keep_days prunes
-  // them at snapshots, never one the learning holds), so they are not counted.
+  // The learning history is the last `count - first` samples the run accepted before its snapshot,
+  // each stored (oldest first by index). Where every sample was accepted (the supervisor, a replay
+  // without a sample set aside) a sample's index is its place among the accepted ones, and each must be
+  // where it is; those before `first` may have been deleted (the supervisor's keep_days prunes them at
+  // snapshots, never one the learning holds). A replay that set samples aside keeps its recording's
+  // row numbers, with gaps; it deletes nothing, so every accepted sample is there.
   const std::int64_t first = s.controller.history_first_index;
   const std::int64_t count = s.controller.samples;
+  const std::int64_t need = count - first;
+  const bool by_place = next == count;
   const auto cols = static_cast<Eigen::Index>(inputs);
+  std::vector<const storage::InputSampleRecord*> before;
+  for (const auto& rec : samples)
+    if (rec.sample_index < next) before.push_back(&rec);
+  const auto stored = static_cast<std::int64_t>(before.size());
+  const std::string range = "(samples " + std::to_string(first) + " to " + std::to_string(count - 1) + " of the " +
+                            std::to_string(count) + " accepted before its snapshot)";
+  if (stored < need || stored > count || (!by_place && stored != count))
+    throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores " + std::to_string(stored) +
+                             " samples before its snapshot (row " + std::to_string(next) +
+                             "), where its learning history " + range + " needs " +
+                             (by_place ? "the last " + std::to_string(need) : "all " + std::to_string(count)));
   std::vector<double> time_s;
-  InputMatrix matrix(std::max<Eigen::Index>(0, static_cast<Eigen::Index>(count - first)), cols);
-  std::int64_t next = first;
-  for (const auto& rec : samples) {
-    if (rec.sample_index < first) continue;
-    if (rec.sample_index != next || next >= count)
+  InputMatrix matrix(std::max<Eigen::Index>(0, static_cast<Eigen::Index>(need)), cols);
+  for (std::int64_t k = 0; k < need; ++k) {
+    const storage::InputSampleRecord& rec = *before[static_cast<std::size_t>(stored - need + k)];
+    if (by_place && rec.sample_index != first + k)
       throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores sample " +
-                               std::to_string(rec.sample_index) + " where its learning history (samples " +
-                               std::to_string(first) + " to " + std::to_string(count - 1) +
-                               " before its snapshot) needs sample " + std::to_string(next));
+                               std::to_string(rec.sample_index) + " where its learning history " + range +
+                               " needs sample " + std::to_string(first + k));
     if (static_cast<Eigen::Index>(rec.values.size()) != cols)
       throw std::runtime_error(db.string() + ": stored sample " + std::to_string(rec.sample_index) + " has " +
                                std::to_string(rec.values.size()) + " inputs");
     time_s.push_back(rec.time_s);
-    for (Eigen::Index c = 0; c < cols; ++c)
-      matrix(static_cast<Eigen::Index>(time_s.size()) - 1, c) = rec.values[static_cast<std::size_t>(c)];
-    ++next;
+    for (Eigen::Index c = 0; c < cols; ++c) matrix(static_cast<Eigen::Index>(k), c) = rec.values[static_cast<std::size_t>(c)];
   }
-  if (next != count)
-    throw std::runtime_error(db.string() + ": run " + std::to_string(run) + " stores " + std::to_string(next - first) +
-                             " samples of its learning history before its snapshot (samples " + std::to_string(first) +
-                             " to " + std::to_string(count - 1) + "), which needs " + std::to_string(count - first));
   restore_history(s.controller, std::move(time_s), std::move(matrix));
   return s;
 }

@@ -478,7 +478,7 @@ std::int64_t HistoryWriter::prune_samples(RunId run, std::int64_t before_index, 
 
 void HistoryWriter::commit() { live().commit(); }
 
-ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
+ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable, const SnapshotCheck& restorable) {
   Impl& m = live();
   m.commit();
   auto runs = detail::query_runs(*m.db, run);
@@ -525,6 +525,11 @@ ResumePoint HistoryWriter::resume_run(RunId run, const SnapshotCheck& usable) {
                              " (each sample is stored with its prediction): rows were deleted or damaged; nothing "
                              "was changed ('alc db check' names the run)");
   }
+  if (restorable)
+    if (const std::string why = restorable(point.snapshot); !why.empty())
+      throw StorageError(StorageErrorKind::Corrupt, m.file,
+                         "run " + std::to_string(run) + " cannot be resumed from its snapshot " +
+                             std::to_string(point.snapshot.snapshot_id) + ": " + why + "; nothing was changed");
   m.insert([&] {
     // Everything after the snapshot is redone by the resumed run; table names are fixed text.
     for (const char* table : {"probe_measurements", "predictions", "model_parameter_sets", "phase_changes",

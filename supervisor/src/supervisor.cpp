@@ -202,7 +202,7 @@ void Supervisor::begin_or_resume() {
   }
   const storage::ControllerSnapshot& snap = *lifecycle_->resumed_from();
   runtime::RunState s =
-      runtime::load_run_state(config_.history.db, run, snap.payload, config_.signals.inputs.size());
+      runtime::load_run_state(config_.history.db, run, snap, config_.signals.inputs.size());
   controller_ = Controller(config_.signals.inputs, config_.signals.outputs, config_.parameters, std::move(s.controller));
   driver_.set_identification_s(s.identification_s);
   next_seq_ = s.next_index;

@@ -118,6 +118,74 @@ TEST_CASE("alc replay killed with SIGKILL mid-run leaves a sound history that --
   CHECK(alc("db check \"" + db.string() + "\"").exit_code == 0);
 }
 
+TEST_CASE("alc replay of a recording with samples set aside resumes after a stop or a kill as an uninterrupted run") {
+  // A sensor reading beyond its plausible limit sets the sample aside: the history keeps the recording's
+  // row numbers, with a gap. Before, a resume past it was refused ('stores sample 61 where its learning
+  // history ... needs sample 60') and the refusal had already deleted the stop's indicators and marked
+  // the run running again.
+  const fs::path dir = work_dir() / "set_aside";
+  fs::create_directories(dir);
+  const fs::path full = dir / "a.csv", csv = dir / "one.csv";
+  REQUIRE(alc("simulate --case A --out \"" + full.string() + "\"").exit_code == 0);
+  {
+    std::istringstream in(slurp(full));
+    std::ofstream out(csv);
+    std::string line;
+    for (int row = 0; std::getline(in, line); ++row) {
+      // Row 61 (1 h) and rows 1200-1210 (about 20 h): the second column, an input, at 500 °C.
+      if (row == 61 || (row >= 1200 && row <= 1210)) {
+        const auto a = line.find(','), b = line.find(',', a + 1);
+        line = line.substr(0, a + 1) + "500" + line.substr(b);
+      }
+      out << line << '\n';
+    }
+  }
+  const fs::path whole_db = dir / "whole.sqlite";
+  fs::remove(whole_db);
+  const Run whole = alc("replay \"" + csv.string() + "\" --json --db \"" + whole_db.string() + "\"");
+  REQUIRE(whole.exit_code == 0);
+  CHECK_THAT(whole.err, Catch::Matchers::Contains("12 of 11521 samples were set aside"));
+  const auto samples_of = [](const fs::path& db) {
+    const Run r = alc("db export \"" + db.string() + "\" --table input_samples --out -");
+    REQUIRE(r.exit_code == 0);
+    return r.out;
+  };
+  for (const std::string how : {"--stop-at 2", "--stop-at 25", "--kill-at 30"}) {
+    INFO(how);
+    const fs::path db = dir / "part.sqlite";
+    fs::remove(db);
+    const Run part = alc("replay \"" + csv.string() + "\" --json --db \"" + db.string() + "\" " + how);
+    REQUIRE((part.exit_code == 0 || part.signal == 9));
+    const Run resumed = alc("replay \"" + csv.string() + "\" --json --db \"" + db.string() + "\" --resume");
+    INFO(resumed.err);
+    REQUIRE(resumed.exit_code == 0);
+    CHECK(indicators_of(resumed.out) == indicators_of(whole.out));
+    CHECK(samples_of(db) == samples_of(whole_db));
+  }
+}
+
+TEST_CASE("alc replay --resume that cannot read back its samples changes nothing in the history") {
+  const fs::path db = work_dir() / "unreadable.sqlite";
+  fs::remove(db);
+  REQUIRE(alc("replay --case A --db \"" + db.string() + "\" --stop-at 10").exit_code == 0);
+  const auto query = [&](const std::string& q) {
+    const fs::path out = work_dir() / "unreadable.out";
+    REQUIRE(std::system(("sqlite3 \"" + db.string() + "\" \"" + q + "\" > \"" + out.string() + "\"").c_str()) == 0);
+    return slurp(out);
+  };
+  // A learning-history sample whose stored inputs are 2 bytes long.
+  query("UPDATE input_samples SET values_f64 = x'0000' WHERE sample_index = 500");
+  const std::string before =
+      query("SELECT status, ended_unix_s IS NULL, (SELECT COUNT(*) FROM run_indicators), (SELECT COUNT(*) FROM "
+            "input_samples), (SELECT COUNT(*) FROM controller_snapshots) FROM runs");
+  CHECK(before.rfind("stopped|0|1|", 0) == 0);
+  const Run resumed = alc("replay --case A --db \"" + db.string() + "\" --resume");
+  CHECK(resumed.exit_code == 1);  // a damaged history, not a usage error
+  CHECK_THAT(resumed.err, Catch::Matchers::Contains("sample 500") && Catch::Matchers::Contains("nothing was changed"));
+  CHECK(query("SELECT status, ended_unix_s IS NULL, (SELECT COUNT(*) FROM run_indicators), (SELECT COUNT(*) FROM "
+              "input_samples), (SELECT COUNT(*) FROM controller_snapshots) FROM runs") == before);
+}
+
 TEST_CASE("alc replay --case all --resume: after a kill, finished cases are shown, the unfinished one resumed, the rest begun") {
   const fs::path db = work_dir() / "all_killed.sqlite";
   fs::remove(db);

@@ -45,10 +45,11 @@ std::int64_t history_rows(const ControllerState& state);
 // number or width does not match the state.
 void restore_history(ControllerState& state, std::vector<double> time_s, InputMatrix inputs);
 
-// Decodes the snapshot `payload` of `run` in the history `db` and puts back the input samples its
-// controller keeps from the run's stored input samples (`inputs` values each). Throws
-// std::runtime_error naming the database when the stored samples do not match the state.
-RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const std::string& payload,
+// Decodes the payload of `snapshot` of `run` in the history `db` and puts back the input samples its
+// controller keeps from the run's stored input samples before the snapshot's next_sample_index
+// (`inputs` values each). Throws std::runtime_error naming the database when the stored samples do
+// not match the state.
+RunState load_run_state(const std::filesystem::path& db, storage::RunId run, const storage::ControllerSnapshot& snapshot,
                         std::size_t inputs);
 
 }  // namespace alc::runtime

@@ -112,8 +112,10 @@ class HistoryWriter {
   // See the file comment. With `usable`, the latest snapshot that passes it: later ones that do not
   // are listed in ResumePoint::skipped (and deleted with the records after the one used). Throws
   // StorageError(NotFound) if the run or its snapshot is missing, StorageError(Corrupt) naming every
-  // snapshot and why if none passes; nothing is changed then.
-  ResumePoint resume_run(RunId run, const SnapshotCheck& usable = {});
+  // snapshot and why if none passes; nothing is changed then. With `restorable`, what the resume
+  // reads back besides the snapshot (the stored samples of its learning history) is judged on the
+  // snapshot chosen before anything is deleted: StorageError(Corrupt) naming why, nothing changed.
+  ResumePoint resume_run(RunId run, const SnapshotCheck& usable = {}, const SnapshotCheck& restorable = {});
 
   // Commits and closes; further calls throw. Safe to call twice.
   void close();
