@@ -8,6 +8,9 @@ ensure_packages linuxcnc-uspace
 # The MQTT broker for the supervisor's tests (tests/supervisor/ starts its own on a free port); openssl makes
 # the certificates of its TLS test.
 ensure_packages mosquitto openssl
+# strace kills a supervisor child at a chosen system call (tests/supervisor/nc_loop_test.cpp: a kill
+# while a program is handed to the spool).
+ensure_packages strace
 # SLURM and munge for the study's cluster test (tests/study/slurm_study_test.sh starts its own
 # daemons; the packages' services are not used).
 ensure_packages slurmctld slurmd slurm-client munge

@@ -211,11 +211,13 @@ void Supervisor::begin_or_resume() {
     throw std::runtime_error(inbox_->path().string() + ": no supervisor state for the snapshot of run " +
                              std::to_string(run) + " (inbox entry " + std::to_string(next_seq_) + ")");
   restore_extras(*extras, snap.time_s);
+  const nc::AxisOffsets at_snapshot = nc_->state().in_force;
   // Everything accepted after the snapshot, again, in the order it was accepted.
   recovering_ = true;
   const auto entries = inbox_->from(next_seq_);
   for (const InboxEntry& e : entries) process(e.kind, e.payload, e.seq);
   recovering_ = false;
+  settle_nc_after_recovery(at_snapshot);
   logger()->info("run {} resumed from its snapshot at t = {} s and {} inbox entries after it", run, snap.time_s,
                  entries.size());
 }
@@ -392,10 +394,16 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     entry_seq_ = s;
     result_ = m;
     drain();
-    if (idle()) next_seq_ = s + 1;
+    if (idle()) next_seq_ = entry_seq_ + 1;
     return;
   }
   if (topic == "nc/compensation") return apply_probe_compensation(payload);  // journaled, see supervisor_nc.cpp
+  if (topic == "nc/sending" && seq >= 0) {  // journaled (never from the broker), see settle_nc_after_recovery
+    entry_seq_ = seq;
+    nc_sending_ = payload;
+    if (idle()) next_seq_ = seq + 1;
+    return;
+  }
   reject(topic, "not a topic the supervisor reads");
 }
 
@@ -406,7 +414,7 @@ void Supervisor::accept_sample(const SampleMessage& m, const std::string& payloa
   ++counts_.received;
   held_.push_back(m);
   drain();
-  if (idle()) next_seq_ = s + 1;
+  if (idle()) next_seq_ = entry_seq_ + 1;  // entry_seq_: this sample's, or a delivery journaled while fed
 }
 
 void Supervisor::drain() {

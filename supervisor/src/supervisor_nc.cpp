@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/log.hpp"
+#include "nc_interface/jsonl.hpp"
 #include "nc_interface/safety.hpp"
 #include "runtime/nc_emitter.hpp"
 #include "runtime/run.hpp"
@@ -54,6 +55,13 @@ void Supervisor::on_nc_cycle() {
       error = "not sent: the NC holds " + offsets_json(nc_held_).dump() + ", not the " + offsets_json(believed).dump() +
               " these commands step from; the next cycle steps from what it holds";
     } else if (error.empty()) {
+      // A sink that cannot be read back: what is held and what is handed over, journaled first, so a
+      // restart after a kill mid-delivery knows what the NC may hold (settle_nc_after_recovery).
+      if (!link_->reads_back()) {
+        Json commands = Json::array();
+        for (const nc::NcCommand& c : fresh) commands.push_back(nc::to_json_line(c));
+        entry_seq_ = inbox_->append("nc/sending", Json{{"held", offsets_json(nc_held_)}, {"commands", commands}}.dump());
+      }
       d = link_->deliver(fresh);
       error = d.error;
       for (std::size_t k = 0; k < d.delivered; ++k)
@@ -86,6 +94,54 @@ void Supervisor::on_nc_cycle() {
   }
   // What the offsets in force cancel, in the error space (a step toward the target cancels part of it).
   compensation_ = error_space_->compensation(nc_->state().in_force, compensation_);
+}
+
+// After the recovery of a restart, with a sink that cannot be read back (spool). The recovery made
+// again the commands after the snapshot but could not know which reached the NC: it holds what it held
+// at the snapshot, or, when a delivery was journaled after it, what the latest one held plus any of its
+// commands. Those commands are handed over again (totals: one that was written already changes nothing,
+// one that was not is a step within max_step of what was held), so the NC holds what they make; the
+// offsets step on from there. Before, the recovery took every command made again for delivered: a kill
+// between the journal and the spool lost a step, its row read 'taken', and the next step was twice
+// max_step on the machine.
+void Supervisor::settle_nc_after_recovery(const nc::AxisOffsets& at_snapshot) {
+  const std::optional<std::string> sending = std::exchange(nc_sending_, std::nullopt);
+  if (!link_ || !link_->delivers() || link_->reads_back()) return;  // read back instead (sync_nc)
+  nc::AxisOffsets held = at_snapshot;
+  std::string how = "held at the snapshot, nothing handed over after it";
+  if (sending) {
+    const Json j = Json::parse(*sending);
+    held = offsets_of(j.at("held"), config_.machine.work_offset);
+    std::vector<nc::NcCommand> again;
+    for (const Json& line : j.at("commands")) again.push_back(nc::parse_command_json(line.get<std::string>(), "inbox"));
+    const NcDelivery d = link_->deliver(again);
+    for (std::size_t k = 0; k < d.delivered; ++k)
+      if (const auto* o = std::get_if<nc::AxisOffsets>(&again[k])) held = nc::held_after(held, *o);
+    if (!d.error.empty())
+      throw std::runtime_error("the NC's offsets are not known after the restart: the " + std::to_string(again.size()) +
+                               " command(s) being handed to " + link_->sink_name() +
+                               " at the stop could not be handed over again (" + d.error +
+                               "); nothing else is sent until they are");
+    how = "the " + std::to_string(again.size()) + " command(s) being handed over at the stop, handed over again";
+  }
+  nc_held_ = held;
+  // The rows the recovery made again (after the snapshot) had no delivery: not known to have reached it.
+  writer_->record_delivery(lifecycle_->run(), link_->sink_name(), false,
+                           "made again at a restart; not known to have reached the NC, which holds " +
+                               offsets_json(held).dump() + " (" + how + ")");
+  if (!same_on_nc(held, nc_->state().in_force)) {
+    logger()->warn("after the restart the NC holds {} ({}), not the offsets in force {}: continuing from it",
+                   offsets_json(held).dump(), how, offsets_json(nc_->state().in_force).dump());
+    event({{"type", "NcResync"},
+           {"time_s", controller_.state().now_s},
+           {"reason", "after the restart the NC holds what was handed over last (" + how +
+                          "), not the offsets in force; the offsets step from what it holds"},
+           {"held", offsets_json(held)},
+           {"in_force", offsets_json(nc_->state().in_force)}});
+    roll_back_nc(held);
+    compensation_ = error_space_->compensation(held, compensation_);
+    offsets_changed_ = true;
+  }
 }
 
 void Supervisor::roll_back_nc(const nc::AxisOffsets& held) {

@@ -9,8 +9,12 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <memory>
+#include <sstream>
 
 #include "../linuxcnc_sim_support.hpp"
 #include "supervisor_test_support.hpp"
@@ -81,6 +85,26 @@ std::string short_cp_config(const scenarios::Scenario& s, int broker_port) {
   REQUIRE(text.find(cp) != std::string::npos);
   text.replace(text.find(cp), cp.size(), "cp = 2\ncp-interval = 15\ninterval = 1\nguard = false\n");
   return text;
+}
+
+// Plays rows [from, to) of `s` into `sup`, answering each new probe request at once with the twin's
+// errors less the compensation published last (a gateway on a machine with those offsets in force).
+void play_answering(supervisor::Supervisor& sup, RecordingBus& bus, const scenarios::Scenario& s,
+                    std::int64_t& answered, std::size_t from, std::size_t to) {
+  for (std::size_t row = from; row < to; ++row) {
+    sup.on_message("sample", sample_json(s, row), 0.0);
+    const Json request = bus.last("probe/request");
+    if (request.is_null() || request["id"].get<std::int64_t>() <= answered) continue;
+    answered = request["id"].get<std::int64_t>();
+    const Json comp = bus.last("offsets").is_null() ? Json::object() : bus.last("offsets")["compensation"];
+    Json errors = Json::object();
+    for (std::size_t j = 0; j < s.output_names.size(); ++j) {
+      const double reading = s.outputs(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(j));
+      const Json& c = comp.is_object() && comp.contains(s.output_names[j]) ? comp[s.output_names[j]] : Json();
+      if (std::isfinite(reading)) errors[s.output_names[j]] = reading - (c.is_number() ? c.get<double>() : 0.0);
+    }
+    sup.on_message("probe/result", Json{{"id", answered}, {"time_s", s.time_s[row]}, {"errors", errors}}.dump(), 0.0);
+  }
 }
 
 // The supervisor's config: case A's signals, the NC on the simulator's linuxcncrsh.
@@ -455,20 +479,7 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   RecordingBus bus;
   std::int64_t answered = 0;
   const auto play = [&](supervisor::Supervisor& sup, std::size_t from, std::size_t to) {
-    for (std::size_t row = from; row < to; ++row) {
-      sup.on_message("sample", sample_json(s, row), 0.0);
-      const Json request = bus.last("probe/request");
-      if (request.is_null() || request["id"].get<std::int64_t>() <= answered) continue;
-      answered = request["id"].get<std::int64_t>();
-      const Json comp = bus.last("offsets").is_null() ? Json::object() : bus.last("offsets")["compensation"];
-      Json errors = Json::object();
-      for (std::size_t j = 0; j < s.output_names.size(); ++j) {
-        const double reading = s.outputs(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(j));
-        const Json& c = comp.is_object() && comp.contains(s.output_names[j]) ? comp[s.output_names[j]] : Json();
-        if (std::isfinite(reading)) errors[s.output_names[j]] = reading - (c.is_number() ? c.get<double>() : 0.0);
-      }
-      sup.on_message("probe/result", Json{{"id", answered}, {"time_s", s.time_s[row]}, {"errors", errors}}.dump(), 0.0);
-    }
+    play_answering(sup, bus, s, answered, from, to);
   };
   const std::size_t rows = s.samples();
   {
@@ -538,6 +549,89 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
   CHECK(taken >= 3);
   CHECK(failed >= 1);
   CHECK(h.input_samples(h.runs().back().run_id).size() == rows);
+}
+
+// The child of the test below, run under strace, which kills it at a chosen spool claim (link(2)): case A
+// through a supervisor with a spool sink. Hidden: it runs only by name, with ALC_SPOOL_KILL_DIR set.
+TEST_CASE("nc spool kill child", "[.]") {
+  const char* where = std::getenv("ALC_SPOOL_KILL_DIR");
+  REQUIRE(where != nullptr);
+  const fs::path dir(where);
+  const scenarios::Scenario s = case_a(5.0);
+  const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
+  RecordingBus bus;
+  std::int64_t answered = 0;
+  supervisor::Supervisor sup(config, bus, "test");
+  sup.announce();
+  play_answering(sup, bus, s, answered, 0, s.samples());
+  write(dir / "finished", "not killed");
+}
+
+TEST_CASE("nc spool: killed while a program is handed to the spool, the restart hands it over again and no step on the machine exceeds max_step") {
+  // Before, the recovery took every command it made again for delivered: the step being written at
+  // the kill was never written, its row read 'taken', and the next program moved X by twice max_step.
+  const scenarios::Scenario s = case_a(5.0);
+  for (const int when : {3, 5, 8, 13}) {
+    INFO("killed at spool claim " << when);
+    const fs::path dir = temp_dir("nc-spool-kill-" + std::to_string(when));
+    fs::remove_all(dir);
+    fs::create_directories(dir / "spool");
+    write(dir / "machine.toml", kZeroG54);
+    write(dir / "s.toml", short_cp_config(s, 1) + "[nc]\nmachine = \"machine.toml\"\nsink = \"spool\"\nspool_dir = \"spool\"\n");
+    const std::string self = fs::read_symlink("/proc/self/exe").string();
+    const std::string cmd = "ALC_SPOOL_KILL_DIR='" + dir.string() +
+                            "' strace -f -qq -o /dev/null -e trace=link -e inject=link:signal=KILL:when=" +
+                            std::to_string(when) + " '" + self + "' 'nc spool kill child' > '" +
+                            (dir / "child.log").string() + "' 2>&1";
+    std::system(cmd.c_str());
+    INFO(read_text(dir / "child.log"));
+    REQUIRE_FALSE(fs::exists(dir / "finished"));  // killed at the claim, as by kill -9
+    const supervisor::SupervisorConfig config = supervisor::read_supervisor_config(dir / "s.toml");
+    RecordingBus bus;
+    std::int64_t answered = 0;
+    {
+      supervisor::Supervisor sup(config, bus, "test");
+      sup.announce();
+      REQUIRE(sup.counts().received > 0);
+      play_answering(sup, bus, s, answered, static_cast<std::size_t>(sup.counts().received), s.samples());
+      sup.stop();
+    }
+    // The programs in the order the machine runs them (a temporary file the kill left is none): from
+    // the zero work offset, every G10 moves each axis by at most max_step.
+    std::vector<fs::path> programs;
+    for (const auto& e : fs::directory_iterator(dir / "spool"))
+      if (e.path().extension() == ".ngc") programs.push_back(e.path());
+    std::sort(programs.begin(), programs.end());
+    REQUIRE(programs.size() > static_cast<std::size_t>(when));
+    std::array<double, 5> previous{0, 0, 0, 0, 0};
+    const std::array<double, 5> max_step{0.01, 0.01, 0.01, 0.001, 0.001};
+    std::size_t g10 = 0;
+    for (const auto& f : programs) {
+      std::ifstream in(f);
+      for (std::string line; std::getline(in, line);) {
+        if (line.rfind("G21 G10 L2 P1 ", 0) != 0) continue;
+        ++g10;
+        std::istringstream words(line.substr(14));
+        std::array<double, 5> now = previous;
+        for (std::string w; words >> w;) {
+          const auto axis = std::string("XYZAC").find(w[0]);
+          REQUIRE(axis != std::string::npos);
+          now[axis] = std::stod(w.substr(1));
+        }
+        for (std::size_t a = 0; a < 5; ++a) {
+          INFO(f.filename().string() << ": " << line << " after " << previous[a] << " on axis " << "XYZAC"[a]);
+          CHECK(std::abs(now[a] - previous[a]) <= max_step[a] + 1e-9);
+        }
+        previous = now;
+      }
+    }
+    CHECK(g10 > 3);
+    // No row says a command reached the spool that is not there.
+    const storage::HistoryReader h(dir / "h.sqlite");
+    std::size_t taken = 0;
+    for (const auto& r : h.nc_commands(h.runs().back().run_id)) taken += r.delivered == std::optional<bool>(true);
+    CHECK(taken <= programs.size());
+  }
 }
 
 TEST_CASE("supervisor: an output that is no location error of the C axis is named in a warning when an NC sink is set") {

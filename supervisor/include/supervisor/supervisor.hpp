@@ -118,6 +118,7 @@ class Supervisor {
   void on_nc_cycle();
   void roll_back_nc(const nc::AxisOffsets& held);
   std::string sync_nc(bool settle_rows);
+  void settle_nc_after_recovery(const nc::AxisOffsets& at_snapshot);
   void after_message_nc();
   void journal_probe_compensation();
   void run_nc_probe();
@@ -171,6 +172,9 @@ class Supervisor {
   bool nc_failing_ = false;                // the last delivery failed
   std::optional<nc::NcCommand> nc_retry_;  // a probe interval not delivered yet (offsets re-step instead)
   std::int64_t journaled_probe_ = 0;       // id of the probe whose compensation is in the inbox
+  // A sink that cannot be read back (spool): the latest "nc/sending" entry of the inbox met in the
+  // recovery (what was held and the commands handed to the sink, journaled before each delivery).
+  std::optional<std::string> nc_sending_;
 };
 
 }  // namespace alc::supervisor
