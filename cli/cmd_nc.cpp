@@ -40,18 +40,21 @@ std::vector<nc::AxisOffsets> read_in_force(const std::string& path, int default_
   std::ifstream in(path, std::ios::binary);
   if (!in) throw UsageError("--in-force: cannot open " + path + ": " + std::strerror(errno));
   std::vector<nc::NcCommand> lines;
+  std::vector<std::size_t> at;  // each entry's line in the file (before: "entry 1", counted without blank lines)
   try {
-    lines = nc::read_commands_jsonl(in, path, default_work_offset);
+    lines = nc::read_commands_jsonl(in, path, default_work_offset, &at);
   } catch (const nc::JsonlError& e) {
     throw UsageError(std::string("--in-force: ") + e.what());
   }
   std::vector<nc::AxisOffsets> out;
   for (std::size_t i = 0; i < lines.size(); ++i) {
+    const std::string where = "--in-force " + path + ":" + std::to_string(at[i]) + ": ";
     const auto* o = std::get_if<nc::AxisOffsets>(&lines[i]);
-    if (!o) throw UsageError("--in-force " + path + ": entry " + std::to_string(i + 1) + " is not an axis_offsets line");
-    for (const nc::AxisOffsets& seen : out)
-      if (seen.work_offset == o->work_offset)
-        throw UsageError("--in-force " + path + ": " + nc::work_offset_name(o->work_offset) + " is given twice");
+    if (!o) throw UsageError(where + "not an axis_offsets line (the offsets in force are axis_offsets lines only)");
+    for (std::size_t k = 0; k < out.size(); ++k)
+      if (out[k].work_offset == o->work_offset)
+        throw UsageError(where + nc::work_offset_name(o->work_offset) + " is given twice (first on line " +
+                         std::to_string(at[k]) + ")");
     out.push_back(*o);
   }
   return out;

@@ -123,13 +123,15 @@ NcCommand parse_command_json(const std::string& line_text, const std::string& so
   return command;
 }
 
-std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source, int default_work_offset) {
+std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source, int default_work_offset,
+                                           std::vector<std::size_t>* lines) {
   std::vector<NcCommand> out;
   std::string text;
   for (std::size_t line = 1; std::getline(in, text); ++line) {
     if (!text.empty() && text.back() == '\r') text.pop_back();
     if (text.find_first_not_of(" \t") == std::string::npos) continue;
     out.push_back(parse_command_json(text, source, line, default_work_offset));
+    if (lines) lines->push_back(line);
   }
   return out;
 }

@@ -1,4 +1,5 @@
 #include "nc_interface/machine_config.hpp"
+#include <cmath>
 
 #include <fstream>
 #include <set>
@@ -9,6 +10,7 @@
 
 #include "common/byte_codec.hpp"
 #include "common/input_file.hpp"
+#include "nc_interface/nc_number.hpp"
 
 namespace alc::nc {
 namespace {
@@ -156,6 +158,11 @@ void read_nc(Table t, MachineConfig& config) {
     for (std::size_t i = 0; i < 6; ++i) {
       bt.number(axes[i].first, *axes[i].second);
       b.axes[i] = bt.has(axes[i].first);
+      // Named by its key, line and value (validate() below knows the work offset only, and named the
+      // whole [nc.base] table as the value).
+      if (b.axes[i] && !(std::abs(*axes[i].second) <= kMaxBase))
+        bt.fail_at_line(axes[i].first, "a base offset must be finite and within ±1e5 (with the compensation it must "
+                                       "print within ±1e6)");
     }
     bt.no_unknown_keys();
     // A base for the tilt axis the chain does not have is never written: G10 L2 writes the chain's

@@ -1,6 +1,7 @@
 // `alc db export`: one table as CSV; vectors spread into one column per channel name.
 #include <algorithm>
 #include <map>
+#include <set>
 #include <ostream>
 
 #include "sqlite_db.hpp"
@@ -167,11 +168,17 @@ void export_table_csv(const std::filesystem::path& path, std::string_view table,
     if (!first) out << ',';
     first = false;
   };
+  // A channel that bears a fixed column's name (an input called sample_index) is named by its kind
+  // (input_sample_index): a header read by name must not hold a name twice.
+  std::set<std::string> fixed;
+  for (const Column& c : spec->columns)
+    if (c.cell != Cell::Vector) fixed.insert(c.header);
   for (const Column& c : spec->columns) {
     if (c.cell == Cell::Vector) {
       for (const auto& name : channels[c.channel].names) {
         separator();
-        write_field(out, c.header + name);
+        const std::string header = c.header + name;
+        write_field(out, fixed.count(header) ? std::string(c.channel) + "_" + header : header);
       }
     } else {
       separator();

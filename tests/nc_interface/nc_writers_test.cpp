@@ -622,8 +622,13 @@ c_deg = 0.002
   CHECK_THAT(error("[nc.base.G60]\nx_mm = 1"), StartsWith("m.toml: key 'nc.base.G60'"));
   // Bounded so that base + compensation always prints (before: 999999.999 + 0.005 failed at formatting,
   // after the gate, with a spool half written; max_offset 1e300 was taken).
-  CHECK_THAT(error("[nc.base.G54]\nx_mm = 999999.999"), Contains("base offset of G54 must be finite and within ±1e5") &&
-                                                          Contains("999999.999"));
+  // Named by its key, line and value (before: key 'nc.base' and the whole [nc.base] table as the value).
+  CHECK(error("[nc.base.G54]\nx_mm = 999999.999") ==
+        "m.toml: key 'nc.base.G54.x_mm' (line 2): a base offset must be finite and within ±1e5 (with the "
+        "compensation it must print within ±1e6): value '999999.999'");
+  CHECK_THAT(error("[nc.base.G54]\nx_mm = 1.0\n[nc.base.G55]\nz_mm = -4200000.0\n"),
+             StartsWith("m.toml: key 'nc.base.G55.z_mm' (line 4): ") && Contains("value '-4200000'") &&
+                 !Contains("[G54]"));
   CHECK_THAT(error("[limits.max_offset]\nx_mm = 1e300"), Contains("max_offset of axis X must be at most 1000"));
   CHECK_THAT(error("[limits.max_step]\nx_mm = 1e300"), Contains("max_step of axis X must be at most 1000"));
   CHECK_NOTHROW(parse_machine_config("[nc.base.G54]\nx_mm = -99999.9999\n[limits.max_offset]\nx_mm = 1000\n", "m.toml"));
@@ -899,13 +904,16 @@ TEST_CASE("alc nc: --in-force makes max_step count from the offsets in force", "
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("axis X change -0.0950 mm exceeds max_step 0.0100 mm"));
   CHECK(alc::nc::test::read_text(dir / "out").empty());
   // A bad state file is a usage error naming the file.
-  alc::nc::test::write_text(dir / "twice.jsonl", to_json_line(offsets(0, 0, 0, 0, 0, 2)) + "\n" +
+  // Named by the file's line, blank lines counted (before: "entry 1", and the repeat without a line).
+  alc::nc::test::write_text(dir / "twice.jsonl", to_json_line(offsets(0, 0, 0, 0, 0, 2)) + "\n\n" +
                                                      to_json_line(offsets(0.001, 0, 0, 0, 0, 2)) + "\n");
   CHECK(run("--dialect linuxcnc --in-force " + (dir / "twice.jsonl").string() + " --in " + near) == 2);
-  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("twice.jsonl") && Contains("G55 is given twice"));
-  alc::nc::test::write_text(dir / "interval.jsonl", "{\"type\":\"probe_interval\",\"minutes\":5}\n");
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"),
+             Contains("--in-force " + (dir / "twice.jsonl").string() + ":3: G55 is given twice (first on line 1)"));
+  alc::nc::test::write_text(dir / "interval.jsonl", "\n\n{\"type\":\"probe_interval\",\"minutes\":5}\n");
   CHECK(run("--dialect linuxcnc --in-force " + (dir / "interval.jsonl").string() + " --in " + near) == 2);
-  CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("not an axis_offsets line"));
+  CHECK_THAT(alc::nc::test::read_text(dir / "err"),
+             Contains("--in-force " + (dir / "interval.jsonl").string() + ":3: not an axis_offsets line"));
   CHECK(run("--dialect linuxcnc --in-force " + (dir / "missing.jsonl").string() + " --in " + near) == 2);
   CHECK_THAT(alc::nc::test::read_text(dir / "err"), Contains("cannot open"));
   // The help says what happens without it.

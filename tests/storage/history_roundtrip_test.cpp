@@ -513,6 +513,22 @@ TEST_CASE("export writes CSV with one column per channel and quotes text", "[sto
   }
 }
 
+TEST_CASE("export names an input that bears a fixed column's name by its kind, so no header name repeats", "[storage]") {
+  // Before: run_id,sample_index,time_s,sample_index,... and a reader by name took the input for the index.
+  ScratchDir dir;
+  const auto file = dir / "names.sqlite";
+  {
+    HistoryWriter writer(file);
+    RunRecord run = test::small_run();
+    run.input_names = {"sample_index", "run_id", "n_C"};
+    const RunId id = writer.begin_run(run);
+    writer.add(test::sample_at(id, 0));
+  }
+  std::ostringstream samples;
+  export_table_csv(file, "input_samples", samples);
+  CHECK(samples.str() == "run_id,sample_index,time_s,input_sample_index,input_run_id,n_C\n1,0,0,20,21.5,0\n");
+}
+
 TEST_CASE("the time span ignores the snapshot taken before the first sample", "[storage]") {
   ScratchDir dir;
   const auto file = dir / "span.sqlite";

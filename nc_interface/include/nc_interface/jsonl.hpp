@@ -30,7 +30,9 @@ class JsonlError : public std::runtime_error {
 
 NcCommand parse_command_json(const std::string& line_text, const std::string& source = "<input>", std::size_t line = 1,
                              int default_work_offset = 1);
-std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source, int default_work_offset = 1);
+// `lines`, when given, gets each command's 1-based line in the input (empty lines are skipped).
+std::vector<NcCommand> read_commands_jsonl(std::istream& in, const std::string& source, int default_work_offset = 1,
+                                           std::vector<std::size_t>* lines = nullptr);
 
 // One line of JSON without the newline; numbers print so that they read back exactly.
 std::string to_json_line(const NcCommand& command);
