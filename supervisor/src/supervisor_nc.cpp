@@ -121,7 +121,7 @@ void Supervisor::settle_nc_after_recovery(const nc::AxisOffsets& at_snapshot) {
       throw std::runtime_error("the NC's offsets are not known after the restart: the " + std::to_string(again.size()) +
                                " command(s) being handed to " + link_->sink_name() +
                                " at the stop could not be handed over again (" + d.error +
-                               "); nothing else is sent until they are");
+                               "): not started, as no step would be known to be within max_step of what it holds");
     how = "the " + std::to_string(again.size()) + " command(s) being handed over at the stop, handed over again";
   }
   nc_held_ = held;

@@ -553,7 +553,7 @@ TEST_CASE("nc spool: offsets are written as programs after the gate, a spool tha
 
 // The child of the test below, run under strace, which kills it at a chosen spool claim (link(2)): case A
 // through a supervisor with a spool sink. Hidden: it runs only by name, with ALC_SPOOL_KILL_DIR set.
-TEST_CASE("nc spool kill child", "[.]") {
+TEST_CASE("child process: a supervisor on a spool until strace kills it", "[.]") {
   const char* where = std::getenv("ALC_SPOOL_KILL_DIR");
   REQUIRE(where != nullptr);
   const fs::path dir(where);
@@ -581,7 +581,7 @@ TEST_CASE("nc spool: killed while a program is handed to the spool, the restart 
     const std::string self = fs::read_symlink("/proc/self/exe").string();
     const std::string cmd = "ALC_SPOOL_KILL_DIR='" + dir.string() +
                             "' strace -f -qq -o /dev/null -e trace=link -e inject=link:signal=KILL:when=" +
-                            std::to_string(when) + " '" + self + "' 'nc spool kill child' > '" +
+                            std::to_string(when) + " '" + self + "' 'child process: a supervisor on a spool until strace kills it' > '" +
                             (dir / "child.log").string() + "' 2>&1";
     std::system(cmd.c_str());
     INFO(read_text(dir / "child.log"));
