@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace alc {
 
@@ -71,6 +72,7 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   if (s.error_high.size() != n) s.error_high = Eigen::VectorXd::Constant(n, -kInf);
   if (s.guard_off_range.size() != n) s.guard_off_range = Eigen::VectorXd::Zero(n);
   if (s.guard_held.size() != n) s.guard_held = Eigen::VectorXd::Zero(n);
+  if (s.guard_check_hold.size() != n) s.guard_check_hold = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
 }
 
 std::string AlcParameters::validate() const {
@@ -421,6 +423,11 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
       c(i) = 0.0;
       continue;
     }
+    // Held by the first check: the error its probe measured, until the next probe.
+    if (!std::isnan(state_.guard_check_hold(i))) {
+      c(i) = state_.guard_check_hold(i);
+      continue;
+    }
     c(i) *= state_.guard_gain(i);
     const DriftBound b = drift_bound(i, time_s);
     c(i) = std::clamp(c(i), b.low, b.high);
@@ -446,7 +453,8 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       }
       // The drift bound: an event when it starts or stops holding the compensation back by more than the
       // ACL (right after every probe it holds a little: compensation starts from the error measured).
-      const double g = off ? 0.0 : p * state_.guard_gain(i);
+      const double hold = state_.guard_check_hold(i);
+      const double g = off ? 0.0 : std::isnan(hold) ? p * state_.guard_gain(i) : hold;
       const DriftBound b = drift_bound(i, time_s);
       const double acl = acl_of(static_cast<std::size_t>(i));
       const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);
@@ -497,6 +505,33 @@ void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const
   }
 }
 
+void Controller::judge_first_check(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
+                                   ControllerOutput& out) {
+  const bool judge = std::exchange(state_.first_check_due, false) && state_.phase == Phase::PostCalibration;
+  for (Eigen::Index i = 0; i < errors.size(); ++i) {
+    const bool was = !std::isnan(state_.guard_check_hold(i));
+    bool hold = false;
+    const double u = errors(i);
+    double left = 0.0;
+    if (judge && !std::isnan(u) && !std::isnan(residuals(i))) {
+      // What the model compensated at this probe (its prediction with the gain, nothing where the range had
+      // switched it off), against no compensation: the model's first judgement beyond the burst it learnt.
+      const double p = u - residuals(i);
+      left = u - (state_.guard_off_range(i) != 0.0 ? 0.0 : state_.guard_gain(i) * p);
+      hold = std::abs(left) > std::abs(u);
+    }
+    if (hold == was) continue;
+    state_.guard_check_hold(i) = hold ? u : std::numeric_limits<double>::quiet_NaN();
+    std::ostringstream why;
+    if (hold)
+      why << "compensation holds the latest probe's error " << u << " until the next probe: at the first check of "
+          << "the model it left " << left << ", more than the " << u << " without compensation";
+    else
+      why << "compensation by the model again after the probe that followed its first check";
+    out.events.push_back(guard_event(time_s, i, hold ? left : u, u, why.str()));
+  }
+}
+
 bool Controller::evidence(std::size_t k, Eigen::Index i) const {
   return !std::isnan(state_.probes[k].errors(i)) && state_.probes[k].weight > 0.0;
 }
@@ -535,6 +570,7 @@ void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std
     state_.schedule_since_s = time_s;
     state_.schedule_prediction = state_.prediction;
     state_.next_probe_due_s = time_s + first_s;
+    state_.first_check_due = true;
     return;
   }
   set_interval(schedule_->interval(to), time_s, out, interval_reason);
@@ -800,7 +836,10 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   std::vector<std::size_t> breaches;
   const Eigen::VectorXd residuals = this->residuals(record.errors);
   // Every probe after CP is evidence for the guard, the NG probes too (a model that mispredicts breaches).
-  if (state_.phase != Phase::Calibration && state_.has_model) weigh_probe(t, record.errors, residuals, out);
+  if (state_.phase != Phase::Calibration && state_.has_model) {
+    weigh_probe(t, record.errors, residuals, out);
+    if (params_.guard) judge_first_check(t, record.errors, residuals, out);
+  }
   if (state_.has_model) weigh_schedule(t, residuals);
   state_.last_probe_s = t;
   for (Eigen::Index i = 0; i < n; ++i) {

@@ -62,6 +62,9 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.matrix(c.schedule_sums);
   // Version 7: which outputs the guard's drift bound holds back.
   e.vector(c.guard_held);
+  // Version 8: the guard's first check judging the model (a check due, the outputs it holds off).
+  e.boolean(c.first_check_due);
+  e.vector(c.guard_check_hold);
 }
 
 ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
@@ -136,6 +139,10 @@ ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
     c.schedule_sums = d.matrix("schedule_sums");
   }  // before: the controller starts them (init_evidence): kappa 0, the change from the last probe on
   if (version >= 7) c.guard_held = d.vector("guard_held");  // before: none held (init_evidence)
+  if (version >= 8) {  // before: no check due, none held (init_evidence)
+    c.first_check_due = d.boolean("first_check_due");
+    c.guard_check_hold = d.vector("guard_check_hold");
+  }
   return c;
 }
 

@@ -179,6 +179,76 @@ TEST_CASE("controller: the guard's first check takes the first probe after CP an
   }
 }
 
+TEST_CASE("controller: a model that does worse than none at the guard's first check holds the latest probe's error until the next probe") {
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;  // with the guard (default): the first check at 2.5 h, then a probe every hour
+  Driver d(p);
+  d.run_until(2 * kHour + 29 * kMinute);
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  REQUIRE(d.controller.state().first_check_due);
+  // From here E_X0C is a third of what the model learnt during CP: at the first check its compensation
+  // leaves twice the error that none would (within the ACL, no breach); E_A0C stays as learnt.
+  const auto third = [&d](double) { d.plant.offset_x = -2.0 * d.plant.lag; };
+  d.run_until(2 * kHour + 31 * kMinute, third);
+  const auto holds_of = [](const std::vector<ControllerEvent>& events, const char* start) {
+    std::vector<ControllerEvent> r;
+    for (const auto& e : events)
+      if (e.type == ControllerEvent::Type::Guard && e.reason.rfind(start, 0) == 0) r.push_back(e);
+    return r;
+  };
+  const auto holds = holds_of(d.events, "compensation holds the latest probe's error");
+  REQUIRE(holds.size() == 1);
+  CHECK(holds[0].output == "E_X0C");
+  CHECK(holds[0].time_s == 2 * kHour + 30 * kMinute);
+  const double u = holds[0].limit;  // the error without compensation
+  REQUIRE(u > 0.1);
+  CHECK_THAT(holds[0].value, Catch::Matchers::WithinAbs(-2.0 * u, 0.05 * u));  // what the model's compensation left
+  CHECK_THAT(holds[0].reason, Catch::Matchers::Contains("until the next probe: at the first check of the model it left"));
+  CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+  const ControllerState held = d.controller.state();
+  CHECK_FALSE(held.first_check_due);
+  CHECK(held.guard_check_hold(0) == u);
+  CHECK(std::isnan(held.guard_check_hold(1)));
+  // Compensated: the error the probe measured, not the model's prediction (about 2 u after the refit that
+  // learnt from the check's probe); E_A0C as the model predicts.
+  const ControllerOutput now = d.controller.on_tick(d.t);
+  CHECK(now.prediction(0) == u);
+  CHECK(held.prediction(0) > 1.5 * u);
+  CHECK(now.prediction(1) == held.prediction(1));
+  // A state saved during the hold continues bit for bit.
+  Controller restored({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, d.controller.parameters(), held);
+  Driver twin(p);
+  twin.plant = d.plant;
+  twin.t = d.t;
+  twin.controller = restored;
+  twin.run_until(5 * kHour, [&twin](double) { twin.plant.offset_x = -2.0 * twin.plant.lag; });
+  // The next probe (3.5 h) ends the hold, whatever it finds: the model compensates again.
+  const std::size_t before = d.events.size();
+  d.run_until(5 * kHour, third);
+  const std::vector<ControllerEvent> after(d.events.begin() + static_cast<std::ptrdiff_t>(before), d.events.end());
+  const auto again = holds_of(after, "compensation by the model again");
+  REQUIRE_FALSE(again.empty());
+  CHECK(again[0].output == "E_X0C");
+  CHECK(again[0].time_s == 3 * kHour + 30 * kMinute);
+  CHECK(std::isnan(d.controller.state().guard_check_hold(0)));
+  REQUIRE(twin.events.size() == after.size());
+  for (std::size_t i = 0; i < after.size(); ++i) CHECK(twin.events[i].reason == after[i].reason);
+  CHECK(twin.controller.on_tick(twin.t).prediction == d.controller.on_tick(d.t).prediction);
+  // Only the first check judges: the same disturbance from the probe after it on holds nothing, and
+  // without the guard there is no first check to judge.
+  Driver late(p);
+  late.run_until(3 * kHour + 29 * kMinute);
+  late.run_until(5 * kHour, [&late](double) { late.plant.offset_x = -2.0 * late.plant.lag; });
+  CHECK(holds_of(late.events, "compensation holds").empty());
+  AlcParameters unguarded = p;
+  unguarded.guard = false;
+  Driver off(unguarded);
+  off.run_until(2 * kHour + 29 * kMinute);
+  off.run_until(5 * kHour, [&off](double) { off.plant.offset_x = -2.0 * off.plant.lag; });
+  CHECK(off.of_type(ControllerEvent::Type::Guard).empty());
+  CHECK(off.controller.state().guard_check_hold.array().isNaN().all());
+}
+
 TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
   Driver d(paper_parameters());
   d.run_until(2 * kHour + 30 * kMinute);

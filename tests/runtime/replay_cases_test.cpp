@@ -75,6 +75,11 @@ TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s re
 }
 
 // Case A run into a fresh history up to `stop_h`, then resumed from that history to its end: the resumed run.
+// Equal element by element, NaN equal to NaN (a vector that marks "none" with NaN).
+static bool same(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  return a.size() == b.size() && ((a.array() == b.array()) || (a.array().isNaN() && b.array().isNaN())).all();
+}
+
 static std::unique_ptr<Replay> stopped_and_resumed(const alc::scenarios::Scenario& scenario, const AlcParameters& p,
                                                    const std::string& db_name, double stop_h) {
   ReplayOptions o = in_memory(p);
@@ -120,12 +125,36 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
     CHECK(c.error_high == end.error_high);
     CHECK(c.guard_off_range == end.guard_off_range);
     CHECK(c.guard_held == end.guard_held);
+    CHECK(c.first_check_due == end.first_check_due);
+    CHECK(same(c.guard_check_hold, end.guard_check_hold));
     for (std::size_t k = 0; k < r.outputs.size(); ++k) {
       CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
       CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
       CHECK(r.outputs[k].SMAPE == whole.outputs[k].SMAPE);
       CHECK(r.baseline[k].P99 == whole.baseline[k].P99);
     }
+  }
+}
+
+TEST_CASE("held-out H5: a run stopped while the guard's first check holds an output resumes bit for bit") {
+  // H5 at its own seed: the first check after CP (7.5 h) finds E_Z0T's compensation worse than none and
+  // compensates the error its probe measured until the probe at 9.5 h; stopped within the hold and just
+  // before the check, then resumed.
+  const auto simulated = simulate_case("H5");
+  Replay uninterrupted(simulated.scenario, in_memory(AlcParameters{}));
+  uninterrupted.run();
+  const ReplayReport whole = uninterrupted.report();
+  const ControllerState& end = uninterrupted.controller().state();
+  for (double stop_h : {7.4, 7.6, 8.0}) {
+    const auto second = stopped_and_resumed(simulated.scenario, AlcParameters{}, "cases-H5", stop_h);
+    const ReplayReport r = second->report();
+    INFO("stopped at " << stop_h << " h");
+    CHECK(r.M == whole.M);
+    CHECK(r.updates == whole.updates);
+    const ControllerState& c = second->controller().state();
+    CHECK(same(c.guard_check_hold, end.guard_check_hold));
+    CHECK(c.predictor.state() == end.predictor.state());
+    for (std::size_t k = 0; k < r.outputs.size(); ++k) CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
   }
 }
 
@@ -238,6 +267,21 @@ TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refuse
   CHECK(decoded.controller.schedule_sums == live.schedule_sums);
   // And which outputs the drift bound holds back (version 7).
   CHECK(decoded.controller.guard_held == live.guard_held);
+  // And the first check's judgement of the model (version 8): a check due (A at 7 h: CP ended at 6.5 h,
+  // the check comes at 7.5 h), an output held (H5 at 7.6 h: the check found E_Z0T's compensation worse
+  // than none).
+  Replay due(simulated.scenario, in_memory(AlcParameters{}));
+  due.run_until(7 * 3600.0);
+  REQUIRE(due.controller().state().first_check_due);
+  CHECK(decode_run_state(due.encode_state()).controller.first_check_due);
+  const auto h5 = simulate_case("H5");
+  Replay holding(h5.scenario, in_memory(AlcParameters{}));
+  holding.run_until(7.6 * 3600.0);
+  const ControllerState& held = holding.controller().state();
+  REQUIRE_FALSE(held.guard_check_hold.array().isNaN().all());
+  const RunState held_decoded = decode_run_state(holding.encode_state());
+  CHECK(same(held_decoded.controller.guard_check_hold, held.guard_check_hold));
+  CHECK_FALSE(held_decoded.controller.first_check_due);
   CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
   CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
   std::string flipped = bytes;

@@ -112,9 +112,11 @@ struct ControllerEvent {
   std::string output;            // error name (AclBreach, Guard, Implausible)
   double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the new gain (Guard) or the prediction
                                  //     that left the range (Guard, range) or the prediction with its gain (Guard,
-                                 //     drift bound); the reading set aside (Implausible)
+                                 //     drift bound) or the error the model's compensation left at its first
+                                 //     check (Guard, first check); the reading set aside (Implausible)
   double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound
-                                 //     or the drift bound's nearer edge; the plausibility limit (Implausible)
+                                 //     or the drift bound's nearer edge or the error without compensation
+                                 //     (Guard, first check); the plausibility limit (Implausible)
   std::string reason;            // human-readable why
 };
 std::string_view to_string(ControllerEvent::Type type);
@@ -176,6 +178,10 @@ struct ControllerState {
   Eigen::VectorXd error_high;
   Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
   Eigen::VectorXd guard_held;          // 1 while the drift bound holds compensation back by more than the ACL
+  bool first_check_due = false;        // the next probe is the guard's first check of a model fitted on a burst
+  Eigen::VectorXd guard_check_hold;    // [unit] where the model's compensation did worse than none at its first
+                                       //     check, the error that probe measured, compensated until the next
+                                       //     probe instead of the model's; NaN: none held
 };
 
 // Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1, no range) where it is not.
@@ -237,6 +243,11 @@ class Controller {
   void weigh_schedule(double time_s, const Eigen::VectorXd& residuals);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
   void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
+  // The guard's first check judging the model (docs/adaptive.md): at the first probe after a fit on a burst,
+  // an output whose compensation (the prediction with its gain) left a larger error than none compensates
+  // the error that probe measured until the next probe; any other probe after CP ends such a hold.
+  void judge_first_check(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
+                         ControllerOutput& out);
   // The prediction with the guard applied at `time_s` (what is compensated); with `out`, also the events
   // of an output whose prediction leaves or re-enters the range of the measured errors, or whose
   // compensation the drift bound starts or stops holding back.

@@ -5,7 +5,7 @@
 // controller's plain values, its model and predictor state, the probes of the learning window, and
 // the replay's baseline. It does NOT hold the input samples: on restore, the samples the controller
 // keeps (ControllerState::history, rows history_first_index .. samples-1 of the run) come back from
-// where they were stored (the history's input_samples). Format "alc.run-state" version 7 (3 to 6 are read too), in the
+// where they were stored (the history's input_samples). Format "alc.run-state" version 8 (3 to 7 are read too), in the
 // little-endian byte format of common/byte_codec.hpp, ending with an FNV-1a 64 checksum of all bytes
 // before it; decode throws std::runtime_error on a damaged, truncated or foreign payload.
 #include <cstdint>
@@ -19,8 +19,9 @@
 namespace alc::runtime {
 
 inline constexpr const char* kRunStateFormat = "alc.run-state";
-inline constexpr std::uint32_t kRunStateVersion = 7;  // 7: the drift bound; 6: the schedule's kappa evidence; 5: the gain guard;
-                                                      // 4 (first guard) and 3 are read too
+// 8: the first check judging the model; 7: the drift bound; 6: the schedule's kappa evidence; 5: the gain
+// guard; 4 (first guard) and 3 are read too.
+inline constexpr std::uint32_t kRunStateVersion = 8;
 
 struct RunState {
   std::int64_t next_index = 0;        // source index to continue from
