@@ -7,6 +7,14 @@ outputs whose P99 with ALC exceeds the uncompensated P99 (by more than --toleran
 
   python3 scripts/guard_table.py --set 'no guard=--no-guard' --set 'guard (default)='
 
+--sweep 1|2|3 runs one of the three sets of replays of docs/adaptive.md instead (1: A-D at their own
+seeds and 1-12, H1-H5 at theirs and 1-80, S16 at its own and 1-10, 468 replays; 2: A-D at 13-24, H1-H5
+at 81-160, S16 at 11-20, 458; 3: A-D at 25-36, H1-H5 at 161-240, S16 at 21-30, 458) and prints per set
+of options the mean linear P99 and Pd of A-D, S16 and the held-out cases and every output worse than
+uncompensated (--jobs replays at a time):
+
+  python3 scripts/guard_table.py --sweep 3 --jobs 2 --set 'guard (default)='
+
 --alc defaults to build/release/cli/alc of this checkout (the build of scripts/main.sh), wherever the
 script is run from.
 """
@@ -18,6 +26,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 # The release build of scripts/main.sh, beside this script's checkout (not relative to the cwd).
@@ -53,6 +62,36 @@ def figures(result, tolerance):
     return sum(lin) / len(lin), result["Pd"], worse
 
 
+# The sets of replays of docs/adaptive.md (None: the case's own seed): per case group, its seeds.
+def _sweep(ad, held, s16):
+    return ([(c, s) for c in "ABCD" for s in ad] + [(c, s) for c in ("H1", "H2", "H3", "H4", "H5") for s in held] +
+            [("S16", s) for s in s16])
+
+
+SWEEPS = {"1": _sweep([None] + list(range(1, 13)), [None] + list(range(1, 81)), [None] + list(range(1, 11))),
+          "2": _sweep(range(13, 25), range(81, 161), range(11, 21)),
+          "3": _sweep(range(25, 37), range(161, 241), range(21, 31))}
+
+
+def sweep(alc, runs, sets, jobs, tolerance):
+    for label, extra in sets:
+        groups = {"A-D": [], "S16": [], "held-out": []}
+        worse = []
+        with ThreadPoolExecutor(jobs) as pool:
+            results = pool.map(lambda run: replay(alc, run[0], run[1], extra), runs)
+            for (case, seed), r in zip(runs, results):
+                p99, pd, w = figures(r, tolerance)
+                group = "A-D" if case in ("A", "B", "C", "D") else ("S16" if case == "S16" else "held-out")
+                groups[group].append((p99, pd))
+                name = case + (f" s{seed}" if seed is not None else "")
+                worse += [f"{name} {k} {p:.3f} > {u:.3f} (+{100 * (p / u - 1):.1f} %)" for k, p, u in w]
+        print(f"{label}: " + " / ".join(
+            f"{g} {sum(p for p, _ in v) / len(v):.3f} µm, Pd {sum(d for _, d in v) / len(v):.3f} %"
+            for g, v in groups.items()) + f" over {len(runs)} replays; outputs worse than uncompensated: {len(worse)}")
+        for w in worse:
+            print(f"  {w}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--alc", default=str(DEFAULT_ALC),
@@ -64,6 +103,8 @@ def main():
     ap.add_argument("--others", default="H1,H2,H3,H4,H5,S16", help="cases run at their own seed")
     ap.add_argument("--tolerance", type=float, default=0.0)
     ap.add_argument("--json", help="write every figure to this file")
+    ap.add_argument("--sweep", choices=sorted(SWEEPS), help="one of the three sets of replays (see above) instead")
+    ap.add_argument("--jobs", type=int, default=1, help="replays at a time with --sweep (default 1)")
     a = ap.parse_args()
     # A bare name (--alc alc) is looked up on PATH, as subprocess would; a path must be there.
     alc = shutil.which(a.alc) if "/" not in a.alc else (a.alc if os.path.isfile(a.alc) else None)
@@ -76,6 +117,10 @@ def main():
         if not eq or not label:
             ap.error(f"--set {s!r}: give LABEL=OPTIONS (OPTIONS may be empty, e.g. 'guard (default)=')")
         sets.append((label, extra.split()))
+    if a.sweep:
+        if a.jobs < 1:
+            ap.error(f"--jobs {a.jobs}: give 1 or more")
+        return sweep(alc, SWEEPS[a.sweep], sets, a.jobs, a.tolerance)
     seeds = [s.strip() for s in a.seeds.split(",") if s.strip()]
     bad = [s for s in seeds if not re.fullmatch(r"[0-9]+", s)]
     if bad:
