@@ -1,6 +1,7 @@
 #include "supervisor/messages.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -71,6 +72,11 @@ std::variant<ProbeResultMessage, Refusal> parse_probe_result(const std::string& 
   ProbeResultMessage m;
   const auto id = j.find("id");
   if (id == j.end() || !id->is_number_integer()) return Refusal{"id is missing or not a whole number"};
+  // Beyond int64 (up to 2^64 - 1, an unsigned JSON number) no request has that id: named as written, not
+  // wrapped to a negative id.
+  constexpr auto kLargest = static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max());
+  if (id->is_number_unsigned() && id->get<std::uint64_t>() > kLargest)
+    return Refusal{"unknown probe id " + id->dump()};
   m.id = id->get<std::int64_t>();
   if (auto e = finite_number(j, "time_s", "time_s", m.time_s)) return Refusal{*e};
   const auto table = j.find("errors");

@@ -5,6 +5,8 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "runtime/replay.hpp"
@@ -227,6 +229,19 @@ TEST_CASE("messages are refused with the reason named") {
                                               {"E_X0C", "E_Y0C"});
   REQUIRE(std::holds_alternative<supervisor::ProbeResultMessage>(probe));
   CHECK(std::isnan(std::get<supervisor::ProbeResultMessage>(probe).measured(0)));
+  // An id beyond int64 is named as written (it was quoted as -1, wrapped), the largest int64 is read as is.
+  const auto probe_reason = [](const std::string& id) {
+    const auto r = supervisor::parse_probe_result("{\"id\": " + id + ", \"time_s\": 5, \"errors\": {\"E_X0C\": 1}}",
+                                                  {"E_X0C"});
+    return std::holds_alternative<supervisor::Refusal>(r) ? std::get<supervisor::Refusal>(r).reason : std::string();
+  };
+  CHECK(probe_reason("18446744073709551615") == "unknown probe id 18446744073709551615");
+  CHECK(probe_reason("9223372036854775808") == "unknown probe id 9223372036854775808");
+  const auto largest = supervisor::parse_probe_result(
+      "{\"id\": 9223372036854775807, \"time_s\": 5, \"errors\": {\"E_X0C\": 1}}", {"E_X0C"});
+  REQUIRE(std::holds_alternative<supervisor::ProbeResultMessage>(largest));
+  CHECK(std::get<supervisor::ProbeResultMessage>(largest).id == std::numeric_limits<std::int64_t>::max());
+  CHECK(probe_reason("-1") == "");  // a negative id is read; the supervisor refuses it as unknown (below 1)
 }
 
 TEST_CASE("case A through the broker equals the replay with every sample stored once and kill -9 plus restart losing nothing") {

@@ -113,7 +113,8 @@ struct ControllerEvent {
   double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the new gain (Guard) or the prediction
                                  //     that left the range (Guard, range) or the prediction with its gain (Guard,
                                  //     drift bound) or the error the model's compensation left at its first
-                                 //     check (Guard, first check); the reading set aside (Implausible)
+                                 //     check (Guard, first check; at the hold's end the probe's error without
+                                 //     compensation); the reading set aside (Implausible)
   double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound
                                  //     or the drift bound's nearer edge or the error without compensation
                                  //     (Guard, first check); the plausibility limit (Implausible)
