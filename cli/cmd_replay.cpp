@@ -634,8 +634,9 @@ void add_replay_command(CLI::App& app) {
                 "Compensate with the model's prediction as it is. By default a guard backs compensation off per "
                 "output: it scales the prediction by its least-squares gain in [0, 1] against the errors of the "
                 "recent probes, compensates nothing while the prediction leaves the range of the measured "
-                "errors, and keeps compensation within the latest probe's error +- 2 x the fastest drift the "
-                "probes measured x the time since (docs/adaptive.md)")
+                "errors, keeps compensation within the latest probe's error +- 2 x the fastest drift the "
+                "probes measured x the time since, and where the model did worse than none at the first probe "
+                "after a fit on a burst of probes compensates that probe's error until the next (docs/adaptive.md)")
       ->excludes(guard);
   add_table_options({{"plausible-lin", &args->plausible_lin},
                      {"plausible-ang", &args->plausible_ang},
