@@ -72,7 +72,7 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   if (s.error_high.size() != n) s.error_high = Eigen::VectorXd::Constant(n, -kInf);
   if (s.guard_off_range.size() != n) s.guard_off_range = Eigen::VectorXd::Zero(n);
   if (s.guard_held.size() != n) s.guard_held = Eigen::VectorXd::Zero(n);
-  if (s.guard_check_hold.size() != n) s.guard_check_hold = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
+  if (s.guard_check_hold.size() != n) s.guard_check_hold = Eigen::VectorXd::Constant(n, nan);
 }
 
 std::string AlcParameters::validate() const {

@@ -62,7 +62,7 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   e.matrix(c.schedule_sums);
   // Version 7: which outputs the guard's drift bound holds back.
   e.vector(c.guard_held);
-  // Version 8: the guard's first check judging the model (a check due, the outputs it holds off).
+  // Version 8: the guard's first check judging the model (a check due, the errors it holds, NaN: none).
   e.boolean(c.first_check_due);
   e.vector(c.guard_check_hold);
 }

@@ -74,12 +74,13 @@ TEST_CASE("S16: 16 temperatures, a spindle speed and 5 linear outputs at 15 s re
   CHECK(r.mean_p99(ErrorKind::Linear) < r.mean_p99(ErrorKind::Linear, /*baseline=*/true));
 }
 
-// Case A run into a fresh history up to `stop_h`, then resumed from that history to its end: the resumed run.
 // Equal element by element, NaN equal to NaN (a vector that marks "none" with NaN).
 static bool same(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return a.size() == b.size() && ((a.array() == b.array()) || (a.array().isNaN() && b.array().isNaN())).all();
 }
 
+// A scenario (case A, H5) run into a fresh history up to `stop_h`, then resumed from that history to its end:
+// the resumed run (its source is named "case A" whatever the scenario: a label, the same in both runs).
 static std::unique_ptr<Replay> stopped_and_resumed(const alc::scenarios::Scenario& scenario, const AlcParameters& p,
                                                    const std::string& db_name, double stop_h) {
   ReplayOptions o = in_memory(p);
