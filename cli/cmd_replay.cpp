@@ -631,7 +631,9 @@ void add_replay_command(CLI::App& app) {
                                                    {"max-interval", &args->max_interval}});
   auto* guard = cmd->add_flag("--guard", args->guard, "The guard, on by default (kept for older command lines)");
   cmd->add_flag("--no-guard", args->no_guard,
-                "Compensate with the model's prediction as it is. By default a guard backs compensation off per "
+                "Compensate with the model's prediction as it is, and probe on the schedule alone. By default a "
+                "guard takes a probe as soon as an output's compensation has moved half its ACL since the last "
+                "probe, and backs compensation off per "
                 "output: it scales the prediction by its least-squares gain in [0, 1] against the errors of the "
                 "recent probes, compensates nothing while the prediction leaves the range of the measured "
                 "errors, keeps compensation within the latest probe's error +- 2 x the fastest drift the "

@@ -251,6 +251,10 @@ void Controller::schedule_next(double time_s, ControllerOutput& out) {
 void Controller::check_due(double time_s, ControllerOutput& out) {
   const probing::ScheduleContext ctx = schedule_context(time_s);
   if (schedule_->next_due(ctx) > time_s) return;
+  due_now(time_s, schedule_->explain(ctx), out);
+}
+
+void Controller::due_now(double time_s, std::string reason, ControllerOutput& out) {
   // Due: the probe is taken at the first chance from here (one event, the time no longer moves).
   state_.next_probe_due_s = time_s;
   ControllerEvent e;
@@ -258,9 +262,35 @@ void Controller::check_due(double time_s, ControllerOutput& out) {
   e.time_s = time_s;
   e.from = e.to = state_.phase;
   e.interval_s = time_s - state_.schedule_since_s;
-  e.reason = schedule_->explain(ctx);
+  e.reason = std::move(reason);
   state_.current_interval_s = e.interval_s;
   out.events.push_back(std::move(e));
+}
+
+// The guard's move check (docs/adaptive.md): a model whose compensation moves by this fraction of the ACL
+// since the last probe is judged by a probe now, not at the end of the interval. Between probes nothing
+// else tells a model that runs away to the wrong sign from one that follows the error.
+constexpr double kMoveFraction = 0.5;
+
+void Controller::check_move(double time_s, ControllerOutput& out) {
+  // It brings a planned probe forward; where the schedule plans none (a Post-CP interval of inf), none is added.
+  if (!params_.guard || !params_.refit_on_probe || !state_.has_model || state_.phase != Phase::PostCalibration ||
+      !std::isfinite(state_.next_probe_due_s) || probing::reached(time_s, state_.next_probe_due_s) ||
+      state_.schedule_prediction.size() != state_.prediction.size())
+    return;
+  for (Eigen::Index i = 0; i < state_.prediction.size(); ++i) {
+    // An output the guard switched off or holds compensates no prediction: its model's moves reach no axis.
+    if (state_.guard_off_range(i) != 0.0 || !std::isnan(state_.guard_check_hold(i))) continue;
+    const double moved = state_.guard_gain(i) * (state_.prediction(i) - state_.schedule_prediction(i));
+    const double limit = kMoveFraction * acl_of(static_cast<std::size_t>(i));
+    if (!(std::abs(moved) > limit)) continue;
+    std::ostringstream why;
+    why << "the guard's move check: the compensation of " << output_names_[static_cast<std::size_t>(i)]
+        << " moved " << moved << " since t = " << common::shortest_text(state_.schedule_since_s)
+        << " s (the last probe, or the end of CP or NG), more than " << kMoveFraction << " x its ACL (" << limit << "): probe now";
+    due_now(time_s, why.str(), out);
+    return;
+  }
 }
 
 // The schedule's evidence (docs/adaptive.md): per output, the growth rate of the residual variance after
@@ -786,6 +816,7 @@ ControllerOutput Controller::on_sample(double time_s, const Eigen::VectorXd& inp
   if (state_.phase == Phase::PostCalibration && schedule_->checks_each_sample() &&
       !probing::reached(time_s, state_.next_probe_due_s))
     check_due(time_s, out);
+  check_move(time_s, out);
   trim();
   out.prediction = compensated(time_s, out);
   out.next_probe_due_s = state_.next_probe_due_s;

@@ -249,6 +249,88 @@ TEST_CASE("controller: a model that does worse than none at the guard's first ch
   CHECK(off.controller.state().guard_check_hold.array().isNaN().all());
 }
 
+TEST_CASE("controller: the guard's move check takes a probe as soon as a compensation has moved half its ACL since the last probe") {
+  // The plant's E_X0C (3 x the lag of a +-2 K sine of 6 h) moves up to about 6 µm per hour, its E_A0C
+  // (-4 x) 8 µm/m: with a Post-CP interval of 2 h the model's E_X0C compensation moves more than half the
+  // linear ACL (2.5 µm) between two probes, the E_A0C one less than half the angular ACL (7.5 µm/m).
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;
+  p.post_cp_interval_s = 2 * kHour;
+  // What an output's compensation by the model has moved since the last probe; 0 where the guard's range
+  // switched it off or its first check holds the probe's error (nothing of the model reaches an axis).
+  const auto moved = [](const Controller& c, Eigen::Index i) {
+    const ControllerState& s = c.state();
+    if (s.guard_off_range(i) != 0.0 || !std::isnan(s.guard_check_hold(i))) return 0.0;
+    return s.guard_gain(i) * (s.prediction(i) - s.schedule_prediction(i));
+  };
+  Driver d(p);
+  d.run_until(2 * kHour + kMinute);  // CP ends at 2 h
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  int checks = 0;
+  for (; d.t < 30 * kHour; d.t += kMinute) {
+    d.plant.advance(d.t);
+    const ControllerState before = d.controller.state();
+    const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
+    d.events.insert(d.events.end(), out.events.begin(), out.events.end());
+    const bool waiting = d.controller.phase() == Phase::PostCalibration && before.next_probe_due_s > d.t;
+    bool move_event = false;
+    for (const auto& e : out.events)
+      if (e.type == ControllerEvent::Type::ProbeIntervalChange && e.reason.rfind("the guard's move check", 0) == 0) {
+        move_event = true;
+        CHECK_THAT(e.reason, Catch::Matchers::Contains("the compensation of E_X0C moved"));
+        CHECK_THAT(e.reason, Catch::Matchers::Contains("more than 0.5 x its ACL (2.5): probe now"));
+        CHECK(e.time_s == d.t);
+        CHECK(e.interval_s == d.t - before.schedule_since_s);
+        CHECK(e.interval_s < 2 * kHour);
+      }
+    // Complete and exact: while a probe is not yet due, it is due now exactly where an output's compensation
+    // has moved beyond half its ACL since the last probe (E_A0C never does here).
+    if (waiting) {
+      const bool beyond = std::abs(moved(d.controller, 0)) > 2.5 || std::abs(moved(d.controller, 1)) > 7.5;
+      CHECK(std::abs(moved(d.controller, 1)) <= 7.5);
+      CHECK(beyond == move_event);
+      CHECK(move_event == (out.next_probe_due_s == d.t));
+      checks += move_event;
+    }
+    if (d.t >= out.next_probe_due_s) {
+      const auto pout = d.controller.on_probe(ProbeMeasurement{d.t, d.plant.errors(), {}});
+      d.events.insert(d.events.end(), pout.events.begin(), pout.events.end());
+      // After the probe, the movement counts from it.
+      if (d.controller.phase() == Phase::PostCalibration)
+        for (Eigen::Index i = 0; i < 2; ++i) CHECK(moved(d.controller, i) == 0.0);
+    }
+  }
+  CHECK(checks >= 5);
+  // Not without the guard, nor in the paper's literal loop (no refit on a probe within the ACL): there
+  // the probes after CP keep the schedule (the first at 2 h + the interval).
+  AlcParameters unguarded = p, literal = p;
+  unguarded.guard = false;
+  literal.refit_on_probe = false;
+  for (const AlcParameters& q : {unguarded, literal}) {
+    Driver off(q);
+    off.run_until(30 * kHour);
+    for (const auto& e : off.of_type(ControllerEvent::Type::ProbeIntervalChange))
+      CHECK(e.reason.find("move check") == std::string::npos);
+  }
+  // It brings a planned probe forward and adds none where the schedule plans none (Post-CP interval inf).
+  AlcParameters never = p;
+  never.post_cp_interval_s = std::numeric_limits<double>::infinity();
+  Driver stopped(never);
+  stopped.run_until(2 * kHour + kMinute);
+  const int cp_probes = stopped.probes;
+  stopped.run_until(30 * kHour);
+  CHECK(stopped.probes == cp_probes);
+  // Within half the ACL: with the ACLs at 20 µm and 60 µm/m no compensation moves half of them between
+  // two probes 2 h apart (E_A0C would move 7.5 µm/m: the probes that E_X0C's checks brought kept it below).
+  AlcParameters wide = p;
+  wide.acl_linear_um = 20.0;
+  wide.acl_angular_um_per_m = 60.0;
+  Driver quiet(wide);
+  quiet.run_until(30 * kHour);
+  for (const auto& e : quiet.of_type(ControllerEvent::Type::ProbeIntervalChange))
+    CHECK(e.reason.find("move check") == std::string::npos);
+}
+
 TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
   Driver d(paper_parameters());
   d.run_until(2 * kHour + 30 * kMinute);

@@ -196,19 +196,19 @@ TEST_CASE("alc --log-file in a directory that does not exist fails naming the fi
 TEST_CASE("alc --log-level info replay: the guard's decisions are logged with their output, the type named once") {
   const alc_test::CliRun r = run("--log-level info replay --case H5");
   REQUIRE(r.exit_code == 0);
-  // e.g. "t = 37200 s: guard: E_Z0T: compensation gain 1 -> 0: on the recent probes ..."
-  CHECK_THAT(r.err, Catch::Contains("s: guard: E_Z0T: compensation gain 1 -> 0: on the recent probes"));
+  // e.g. "t = 37500 s: guard: E_Y0C: compensation gain 1 -> 0.8: on the recent probes ..."
+  CHECK_THAT(r.err, Catch::Contains("s: guard: E_Y0C: compensation gain 1 -> 0.8: on the recent probes"));
   CHECK(r.err.find(": guard: guard") == std::string::npos);
   CHECK(r.err.find(": guard: E_Z0T: guard:") == std::string::npos);
 }
 
 TEST_CASE("alc --log-level info replay: every phase change is logged with its phases, also those a probe brings") {
-  const alc_test::CliRun r = run("--log-level info replay --case A");
+  const alc_test::CliRun r = run("--log-level info replay --case C");
   REQUIRE(r.exit_code == 0);
   // The end of CP comes with a sample; a breach (Post-CP -> NG) and the update after NG with probes.
   CHECK_THAT(r.err, Catch::Contains("[info] [runtime] t = 23400 s: phase_change: CP -> Post-CP: calibration phase complete"));
   CHECK_THAT(r.err, Catch::Contains("s: phase_change: Post-CP -> NG: ACL breach on E_"));
   CHECK_THAT(r.err, Catch::Contains("s: phase_change: NG -> Post-CP: NG measurements complete"));
-  const alc_test::CliRun quiet = run("replay --case A");
+  const alc_test::CliRun quiet = run("replay --case C");
   CHECK(quiet.err.empty());
 }

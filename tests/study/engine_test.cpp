@@ -32,10 +32,11 @@ const std::vector<StudyCase>& cases() {
 }
 
 // Two CP lengths and two intervals (four units), three NG intervals x two NG counts each, and an
-// invalid set (CP shorter than its probe interval).
+// invalid set (CP shorter than its probe interval); a linear ACL of 2.5 µm, so that a Post-CP probe of
+// these 60 h breaches and the NG options fork there (at 5 µm the guard's move check keeps them all within).
 const std::vector<ParameterSet>& sets() {
   static const std::vector<ParameterSet> s =
-      parse_grid("cp = [0.05, 6.5, 12]\ninterval = [1, 3]\nng-interval = [5, 10, 20]\nng-meas = [6, 12]\n", "t.toml").sets();
+      parse_grid("cp = [0.05, 6.5, 12]\ninterval = [1, 3]\nng-interval = [5, 10, 20]\nng-meas = [6, 12]\nacl-lin = [2.5]\n", "t.toml").sets();
   return s;
 }
 

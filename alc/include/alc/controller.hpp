@@ -240,6 +240,12 @@ class Controller {
   void schedule_next(double time_s, ControllerOutput& out);
   // At a sample after CP, for a policy that checks each sample: the probe is due now if the evidence says so.
   void check_due(double time_s, ControllerOutput& out);
+  // At a sample after CP, under the guard: the probe is due now where an output's compensation by the model
+  // (its prediction with the guard's gain) has moved more than kMoveFraction x its ACL since the last
+  // decision (docs/adaptive.md, "The move check").
+  void check_move(double time_s, ControllerOutput& out);
+  // The probe is due now (one event saying why; the time no longer moves).
+  void due_now(double time_s, std::string reason, ControllerOutput& out);
   // A Post-CP probe's residuals (against the prediction when it ran): the drift and kappa evidence.
   void weigh_schedule(double time_s, const Eigen::VectorXd& residuals);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
