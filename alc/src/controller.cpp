@@ -229,9 +229,10 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
 }
 
 void Controller::schedule_next(double time_s, ControllerOutput& out) {
-  // After the guard's first check (enter), a fixed interval is the schedule's again.
+  // After the guard's first check (enter) or its move check, a fixed interval is the schedule's again.
   if (state_.phase == Phase::PostCalibration && !schedule_->checks_each_sample())
-    set_interval(schedule_->interval(state_.phase), time_s, out, "Post-CP interval after the first check");
+    set_interval(schedule_->interval(state_.phase), time_s, out,
+                 "Post-CP interval after the guard's early probe (its first check or move check)");
   state_.schedule_since_s = time_s;
   state_.schedule_prediction = state_.prediction;
   const probing::ScheduleContext ctx = schedule_context(time_s);

@@ -310,7 +310,7 @@ TEST_CASE("controller: the guard's move check takes a probe as soon as a compens
     Driver off(q);
     off.run_until(30 * kHour);
     for (const auto& e : off.of_type(ControllerEvent::Type::ProbeIntervalChange))
-      CHECK(e.reason.find("move check") == std::string::npos);
+      CHECK(e.reason.rfind("the guard's move check", 0) == std::string::npos);
   }
   // It brings a planned probe forward and adds none where the schedule plans none (Post-CP interval inf).
   AlcParameters never = p;
@@ -328,7 +328,7 @@ TEST_CASE("controller: the guard's move check takes a probe as soon as a compens
   Driver quiet(wide);
   quiet.run_until(30 * kHour);
   for (const auto& e : quiet.of_type(ControllerEvent::Type::ProbeIntervalChange))
-    CHECK(e.reason.find("move check") == std::string::npos);
+    CHECK(e.reason.rfind("the guard's move check", 0) == std::string::npos);
 }
 
 TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
