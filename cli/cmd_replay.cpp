@@ -53,6 +53,8 @@ struct ReplayArgs {
   std::string schedule = "paper", uncertainty_fraction = "0.5", min_interval = "0.5", max_interval = "12";
   bool guard = false;          // --guard: the default since the gain guard (kept so old command lines work)
   bool no_guard = false;
+  std::string move_fraction = common::shortest_text(AlcParameters{}.move_fraction);
+  bool move_fraction_given = false;
   // [µm], [µm/m], [°C], [rpm], [-]: readings beyond ± these are sensor faults (AlcParameters::plausible_*)
   std::string plausible_lin = common::shortest_text(AlcParameters{}.plausible_linear_um);
   std::string plausible_ang = common::shortest_text(AlcParameters{}.plausible_angular_um_per_m);
@@ -85,6 +87,7 @@ AlcParameters parameters_from(const ReplayArgs& a) {
                             {"min-interval", a.min_interval},
                             {"max-interval", a.max_interval},
                             {"guard", a.no_guard ? "false" : "true"},
+                            {"move-fraction", a.move_fraction},
                             {"plausible-lin", a.plausible_lin},
                             {"plausible-ang", a.plausible_ang},
                             {"plausible-temp", a.plausible_temp},
@@ -321,6 +324,10 @@ void run_replay(const ReplayArgs& a) {
   if (!a.adaptive_option_given.empty() && a.schedule != "adaptive")
     throw UsageError(a.adaptive_option_given + " is for --schedule adaptive; under --schedule " + a.schedule +
                      " it would be ignored (give --schedule adaptive, or leave it out)");
+  // Read only by the guard's move check, which needs the guard and the refits on probes.
+  if (a.move_fraction_given && (a.no_guard || a.no_refit))
+    throw UsageError(std::string("--move-fraction is for the guard's move check; with ") +
+                     (a.no_guard ? "--no-guard" : "--no-refit") + " it would be ignored (leave one of them out)");
   std::vector<BaselineKind> baselines;
   if (!a.baselines.empty()) {
     try {
@@ -632,14 +639,15 @@ void add_replay_command(CLI::App& app) {
   auto* guard = cmd->add_flag("--guard", args->guard, "The guard, on by default (kept for older command lines)");
   cmd->add_flag("--no-guard", args->no_guard,
                 "Compensate with the model's prediction as it is, and probe on the schedule alone. By default a "
-                "guard takes a probe as soon as an output's compensation has moved half its ACL since the last "
-                "probe, and backs compensation off per "
+                "guard takes a probe as soon as an output's compensation has moved --move-fraction x its ACL since "
+                "the last probe, and backs compensation off per "
                 "output: it scales the prediction by its least-squares gain in [0, 1] against the errors of the "
                 "recent probes, compensates nothing while the prediction leaves the range of the measured "
                 "errors, keeps compensation within the latest probe's error +- 2 x the fastest drift the "
                 "probes measured x the time since, and where the model did worse than none at the first probe "
                 "after a fit on a burst of probes compensates that probe's error until the next (docs/adaptive.md)")
       ->excludes(guard);
+  const CLI::Option* move_fraction = add_table_options({{"move-fraction", &args->move_fraction}}).front();
   add_table_options({{"plausible-lin", &args->plausible_lin},
                      {"plausible-ang", &args->plausible_ang},
                      {"plausible-temp", &args->plausible_temp},
@@ -677,9 +685,10 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option("--machine", args->machine,
                   "Machine config (TOML) for --nc-out and --db: kinematic chain (also of the offsets stored with "
                   "the predictions), NC options, safety limits (default: the built-in A-C chain and limits)");
-  cmd->callback([args, adaptive_options] {
+  cmd->callback([args, adaptive_options, move_fraction] {
     for (const CLI::Option* o : adaptive_options)
       if (o->count() > 0 && args->adaptive_option_given.empty()) args->adaptive_option_given = o->get_name();
+    args->move_fraction_given = move_fraction->count() > 0;
     run_replay(*args);
   });
 }

@@ -105,6 +105,8 @@ std::string AlcParameters::validate() const {
   if (!positive_finite(min_interval_s)) return describe("min_interval_s", min_interval_s, "must be positive and finite");
   if (!(max_interval_s >= min_interval_s))
     return describe("max_interval_s", max_interval_s, "must not be below min_interval_s (inf: no bound)");
+  if (!positive_or_inf(move_fraction))
+    return describe("move_fraction", move_fraction, "must be positive or inf (inf: no move check)");
   const std::pair<const char*, double> limits[] = {{"plausible_linear_um", plausible_linear_um},
                                                    {"plausible_angular_um_per_m", plausible_angular_um_per_m},
                                                    {"plausible_temperature_C", plausible_temperature_C},
@@ -268,27 +270,25 @@ void Controller::due_now(double time_s, std::string reason, ControllerOutput& ou
   out.events.push_back(std::move(e));
 }
 
-// The guard's move check (docs/adaptive.md): a model whose compensation moves by this fraction of the ACL
+// The guard's move check (docs/adaptive.md): a model whose compensation moves by move_fraction of the ACL
 // since the last probe is judged by a probe now, not at the end of the interval. Between probes nothing
 // else tells a model that runs away to the wrong sign from one that follows the error.
-constexpr double kMoveFraction = 0.5;
-
 void Controller::check_move(double time_s, ControllerOutput& out) {
   // It brings a planned probe forward; where the schedule plans none (a Post-CP interval of inf), none is added.
-  if (!params_.guard || !params_.refit_on_probe || !state_.has_model || state_.phase != Phase::PostCalibration ||
-      !std::isfinite(state_.next_probe_due_s) || probing::reached(time_s, state_.next_probe_due_s) ||
-      state_.schedule_prediction.size() != state_.prediction.size())
+  if (!params_.guard || !params_.refit_on_probe || !std::isfinite(params_.move_fraction) || !state_.has_model ||
+      state_.phase != Phase::PostCalibration || !std::isfinite(state_.next_probe_due_s) ||
+      probing::reached(time_s, state_.next_probe_due_s) || state_.schedule_prediction.size() != state_.prediction.size())
     return;
   for (Eigen::Index i = 0; i < state_.prediction.size(); ++i) {
     // An output the guard switched off or holds compensates no prediction: its model's moves reach no axis.
     if (state_.guard_off_range(i) != 0.0 || !std::isnan(state_.guard_check_hold(i))) continue;
     const double moved = state_.guard_gain(i) * (state_.prediction(i) - state_.schedule_prediction(i));
-    const double limit = kMoveFraction * acl_of(static_cast<std::size_t>(i));
+    const double limit = params_.move_fraction * acl_of(static_cast<std::size_t>(i));
     if (!(std::abs(moved) > limit)) continue;
     std::ostringstream why;
     why << "the guard's move check: the compensation of " << output_names_[static_cast<std::size_t>(i)]
         << " moved " << moved << " since t = " << common::shortest_text(state_.schedule_since_s)
-        << " s (the last probe, or the end of CP or NG), more than " << kMoveFraction << " x its ACL (" << limit << "): probe now";
+        << " s (the last probe, or the end of CP or NG), more than " << params_.move_fraction << " x its ACL (" << limit << "): probe now";
     due_now(time_s, why.str(), out);
     return;
   }

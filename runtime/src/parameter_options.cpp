@@ -52,6 +52,9 @@ const std::vector<ParameterOption>& parameter_options() {
        Stage::CpEnd, "max_interval_s"),
       row("guard", "-", Domain::Flag, "Back compensation off where it does no good on recent probes (default true)",
        Stage::CpEnd, "guard"),
+      row("move-fraction", "-", Domain::PositiveOrInf,
+       "Guard: probe as soon as an output's compensation has moved this x its ACL since the last probe (inf: "
+       "no move check)", Stage::CpEnd, "move_fraction"),
       row("plausible-lin", "µm", Domain::PositiveOrInf,
        "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"),
       row("plausible-ang", "µm/m", Domain::PositiveOrInf,
@@ -139,6 +142,7 @@ void set_parameter(AlcParameters& p, std::string_view name, std::string_view tex
   else if (name == "no-refit") p.refit_on_probe = !flag();
   else if (name == "no-confirm") p.confirm_breach = !flag();
   else if (name == "guard") p.guard = flag();
+  else if (name == "move-fraction") p.move_fraction = value(1.0);
   else if (name == "uncertainty-fraction") p.uncertainty_fraction = value(1.0);
   else if (name == "min-interval") p.min_interval_s = value(3600.0);
   else if (name == "max-interval") p.max_interval_s = value(3600.0);

@@ -84,8 +84,9 @@ bool is_value(const runtime::OptionTexts& options, std::string_view name, std::s
 // no breach, so no NG, and no interval for the adaptive schedule to choose; without an NG burst
 // (ng-interval inf, or no NG probe: ng-meas 0) the NG interval, count and confirmation are never
 // asked; without refits on probes a breach is never confirmed (no-refit implies no-confirm); the
-// adaptive schedule's options under the paper's (the default) are never read. ng-interval = inf takes
-// precedence: with it ng-meas is the moot one.
+// adaptive schedule's options under the paper's (the default) are never read; the guard's move-fraction
+// is never read without the guard or without refits on probes. ng-interval = inf takes precedence: with it
+// ng-meas is the moot one.
 bool moot(const runtime::OptionTexts& all, std::string_view option) {
   const bool ng_option = option == "ng-interval" || option == "ng-meas" || option == "no-confirm";
   const bool adaptive_option =
@@ -96,6 +97,10 @@ bool moot(const runtime::OptionTexts& all, std::string_view option) {
       is_value(all, "ng-meas", "0"))
     return true;
   if (option == "no-confirm" && is_value(all, "no-refit", "true")) return true;
+  // The guard's move check runs only with the guard and refits on probes, and brings Post-CP probes forward.
+  if (option == "move-fraction" &&
+      (is_value(all, "guard", "false") || is_value(all, "no-refit", "true") || is_inf(all, "interval")))
+    return true;
   return adaptive_option && !is_value(all, "schedule", "adaptive");
 }
 

@@ -18,6 +18,7 @@
 #include <limits>
 
 #include "alc/controller.hpp"
+#include "common/number_text.hpp"
 
 using namespace alc;
 
@@ -263,44 +264,59 @@ TEST_CASE("controller: the guard's move check takes a probe as soon as a compens
     if (s.guard_off_range(i) != 0.0 || !std::isnan(s.guard_check_hold(i))) return 0.0;
     return s.guard_gain(i) * (s.prediction(i) - s.schedule_prediction(i));
   };
-  Driver d(p);
-  d.run_until(2 * kHour + kMinute);  // CP ends at 2 h
-  REQUIRE(d.controller.phase() == Phase::PostCalibration);
-  int checks = 0;
-  for (; d.t < 30 * kHour; d.t += kMinute) {
-    d.plant.advance(d.t);
-    const ControllerState before = d.controller.state();
-    const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
-    d.events.insert(d.events.end(), out.events.begin(), out.events.end());
-    const bool waiting = d.controller.phase() == Phase::PostCalibration && before.next_probe_due_s > d.t;
-    bool move_event = false;
-    for (const auto& e : out.events)
-      if (e.type == ControllerEvent::Type::ProbeIntervalChange && e.reason.rfind("the guard's move check", 0) == 0) {
-        move_event = true;
-        CHECK_THAT(e.reason, Catch::Matchers::Contains("the compensation of E_X0C moved"));
-        CHECK_THAT(e.reason, Catch::Matchers::Contains("more than 0.5 x its ACL (2.5): probe now"));
-        CHECK(e.time_s == d.t);
-        CHECK(e.interval_s == d.t - before.schedule_since_s);
-        CHECK(e.interval_s < 2 * kHour);
+  // The run of 30 h at a move fraction (AlcParameters::move_fraction): the number of move checks.
+  const auto run = [&](double fraction) {
+    INFO("move fraction " << fraction);
+    AlcParameters q = p;
+    q.move_fraction = fraction;
+    const double lin = fraction * q.acl_linear_um, ang = fraction * q.acl_angular_um_per_m;
+    Driver d(q);
+    d.run_until(2 * kHour + kMinute);  // CP ends at 2 h
+    REQUIRE(d.controller.phase() == Phase::PostCalibration);
+    int checks = 0;
+    for (; d.t < 30 * kHour; d.t += kMinute) {
+      d.plant.advance(d.t);
+      const ControllerState before = d.controller.state();
+      const ControllerOutput out = d.controller.on_sample(d.t, d.plant.inputs(d.t));
+      d.events.insert(d.events.end(), out.events.begin(), out.events.end());
+      const bool waiting = d.controller.phase() == Phase::PostCalibration && before.next_probe_due_s > d.t;
+      bool move_event = false;
+      for (const auto& e : out.events)
+        if (e.type == ControllerEvent::Type::ProbeIntervalChange && e.reason.rfind("the guard's move check", 0) == 0) {
+          move_event = true;
+          const bool x = std::abs(moved(d.controller, 0)) > lin;  // the first output beyond its limit is named
+          CHECK_THAT(e.reason, Catch::Matchers::Contains(x ? "the compensation of E_X0C moved" : "the compensation of E_A0C moved"));
+          CHECK_THAT(e.reason, Catch::Matchers::Contains("more than " + alc::common::shortest_text(fraction) + " x its ACL (" +
+                                                         alc::common::shortest_text(x ? lin : ang) + "): probe now"));
+          CHECK(e.time_s == d.t);
+          CHECK(e.interval_s == d.t - before.schedule_since_s);
+          CHECK(e.interval_s < 2 * kHour);
+        }
+      // Complete and exact: while a probe is not yet due, it is due now exactly where an output's compensation
+      // has moved beyond the fraction of its ACL since the last probe (at 0.5 E_A0C never does here).
+      if (waiting) {
+        const bool beyond = std::abs(moved(d.controller, 0)) > lin || std::abs(moved(d.controller, 1)) > ang;
+        if (fraction == 0.5) CHECK(std::abs(moved(d.controller, 1)) <= ang);
+        CHECK(beyond == move_event);
+        CHECK(move_event == (out.next_probe_due_s == d.t));
+        checks += move_event;
       }
-    // Complete and exact: while a probe is not yet due, it is due now exactly where an output's compensation
-    // has moved beyond half its ACL since the last probe (E_A0C never does here).
-    if (waiting) {
-      const bool beyond = std::abs(moved(d.controller, 0)) > 2.5 || std::abs(moved(d.controller, 1)) > 7.5;
-      CHECK(std::abs(moved(d.controller, 1)) <= 7.5);
-      CHECK(beyond == move_event);
-      CHECK(move_event == (out.next_probe_due_s == d.t));
-      checks += move_event;
+      if (d.t >= out.next_probe_due_s) {
+        const auto pout = d.controller.on_probe(ProbeMeasurement{d.t, d.plant.errors(), {}});
+        d.events.insert(d.events.end(), pout.events.begin(), pout.events.end());
+        // After the probe, the movement counts from it.
+        if (d.controller.phase() == Phase::PostCalibration)
+          for (Eigen::Index i = 0; i < 2; ++i) CHECK(moved(d.controller, i) == 0.0);
+      }
     }
-    if (d.t >= out.next_probe_due_s) {
-      const auto pout = d.controller.on_probe(ProbeMeasurement{d.t, d.plant.errors(), {}});
-      d.events.insert(d.events.end(), pout.events.begin(), pout.events.end());
-      // After the probe, the movement counts from it.
-      if (d.controller.phase() == Phase::PostCalibration)
-        for (Eigen::Index i = 0; i < 2; ++i) CHECK(moved(d.controller, i) == 0.0);
-    }
-  }
-  CHECK(checks >= 5);
+    return checks;
+  };
+  const int half = run(0.5);  // the default
+  CHECK(half >= 5);
+  CHECK(AlcParameters{}.move_fraction == 0.5);
+  // A smaller fraction checks more often; inf turns the check off (the probes keep the schedule).
+  CHECK(run(0.25) > half);
+  CHECK(run(std::numeric_limits<double>::infinity()) == 0);
   // Not without the guard, nor in the paper's literal loop (no refit on a probe within the ACL): there
   // the probes after CP keep the schedule (the first at 2 h + the interval).
   AlcParameters unguarded = p, literal = p;
@@ -698,6 +714,11 @@ TEST_CASE("controller: invalid parameters are refused naming the field and value
   p.uncertainty_fraction = 0.0;
   CHECK(p.validate() == "uncertainty_fraction = 0: must be positive and finite");
   p.uncertainty_fraction = 0.5;
+  p.move_fraction = 0.0;
+  CHECK(p.validate() == "move_fraction = 0: must be positive or inf (inf: no move check)");
+  p.move_fraction = std::numeric_limits<double>::infinity();
+  CHECK(p.validate().empty());
+  p.move_fraction = 0.5;
   p.max_interval_s = 0.25 * kHour;
   CHECK(p.validate() == "max_interval_s = 900: must not be below min_interval_s (inf: no bound)");
 }

@@ -19,6 +19,7 @@ namespace {
 
 using Run = alc_test::CliRun;
 using alc_test::slurp;
+using alc_test::occurrences;
 
 fs::path work_dir() { return alc_test::work_dir("replay_cli_test"); }
 
@@ -438,16 +439,11 @@ TEST_CASE("alc replay: samples set aside are counted at the end and the first 10
       f << k * 60 << "," << t << "," << (k % 5 == 0 ? std::to_string(2.0 * std::sin(k / 200.0)) : "") << "\n";
     }
   };
-  const auto count = [](const std::string& text, const std::string& what) {
-    std::size_t n = 0;
-    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
-    return n;
-  };
   const fs::path kelvin = work_dir() / "kelvin.csv";  // every temperature + 273.15: beyond +-200 degC
   write(kelvin, 273.15, 0, 0);
   const Run all = alc("replay \"" + kelvin.string() + "\" --cp 2 --json");
   CHECK(all.exit_code == 0);
-  CHECK(count(all.err, " rejected: ") == 10);
+  CHECK(occurrences(all.err, " rejected: ") == 10);
   CHECK_THAT(all.err, Catch::Matchers::Contains("(later rejected samples at log level debug)") &&
                           Catch::Matchers::Contains("kelvin.csv: CP never ended: every sample (1440) was set aside, so no "
                                                     "model was made and nothing was compensated or evaluated; the first: "
@@ -465,7 +461,7 @@ TEST_CASE("alc replay: samples set aside are counted at the end and the first 10
   write(part, 0.0, 600, 630);
   const Run some = alc("replay \"" + part.string() + "\" --cp 2");
   CHECK(some.exit_code == 0);
-  CHECK(count(some.err, " rejected: ") == 10);
+  CHECK(occurrences(some.err, " rejected: ") == 10);
   CHECK_THAT(some.err, Catch::Matchers::Contains("part.csv: 30 of 1440 samples were set aside; the first: sample 600: "));
   CHECK_THAT(some.out, Catch::Matchers::Contains(", samples set aside 30\n") && !Catch::Matchers::Contains("Pd = - %"));
 
@@ -492,11 +488,6 @@ TEST_CASE("alc replay: a sparsely measured recording is told once, when it repla
       f << k * 300 << "," << 20.0 + 3.0 * std::sin(k / 40.0) << ","
         << (k % 12 == 0 ? std::to_string(2.0 * std::sin(k / 40.0)) : "") << "\n";
   }
-  const auto count = [](const std::string& text, const std::string& what) {
-    std::size_t n = 0;
-    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
-    return n;
-  };
   const std::string told = "hourly.csv is measured more sparsely than the schedule asks";
   // Before: the warning came first, then the usage error that refused the run.
   const Run refused = alc("replay \"" + file.string() + "\" --cp 6 --stop-at 5");
@@ -506,11 +497,11 @@ TEST_CASE("alc replay: a sparsely measured recording is told once, when it repla
   fs::remove(db);
   const Run part = alc("replay \"" + file.string() + "\" --cp 6 --db \"" + db.string() + "\" --stop-at 5");
   CHECK(part.exit_code == 0);
-  CHECK(count(part.err, told) == 1);
+  CHECK(occurrences(part.err, told) == 1);
   CHECK_THAT(part.err, Catch::Matchers::Contains("in CP every 60 min (median)"));
   const Run rest = alc("replay \"" + file.string() + "\" --cp 6 --db \"" + db.string() + "\" --resume");
   CHECK(rest.exit_code == 0);
-  CHECK(count(rest.err, told) == 1);
+  CHECK(occurrences(rest.err, told) == 1);
 }
 
 TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximum interval probe less") {
@@ -522,6 +513,27 @@ TEST_CASE("alc replay --schedule adaptive: a budget beyond the ACL and no maximu
   const int bounded = measured(alc("replay --case A --schedule adaptive --json"));
   const int loose = measured(alc("replay --case A --schedule adaptive --uncertainty-fraction 3 --max-interval inf --json"));
   CHECK(loose < bounded);
+}
+
+TEST_CASE("alc replay --move-fraction: a smaller fraction probes more, inf turns the move check off") {
+  // The probes of case A (M) and its move checks (the probe_interval events of the debug log that say so).
+  const auto run = [](const std::string& fraction) {
+    const Run r = alc("--log-level debug replay --case A --json" + (fraction.empty() ? "" : " --move-fraction " + fraction));
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    return std::pair{nlohmann::json::parse(r.out)["M"].get<int>(), occurrences(r.err, "the guard's move check: ")};
+  };
+  const auto [m_default, checks_default] = run("");
+  const auto [m_half, checks_half] = run("0.5");
+  const auto [m_tight, checks_tight] = run("0.25");
+  const auto [m_off, checks_off] = run("inf");
+  CHECK(m_half == m_default);  // 0.5 is the default
+  CHECK(checks_half == checks_default);
+  CHECK(checks_default > 0);
+  CHECK(checks_tight > checks_default);
+  CHECK(m_tight > m_default);
+  CHECK(checks_off == 0);
+  CHECK(m_off < m_default);
 }
 
 TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {
@@ -574,6 +586,12 @@ TEST_CASE("every numeric option of every command is read by one strict parser (i
       {"replay --case A --schedule paper --max-interval 1",
        "--max-interval is for --schedule adaptive; under --schedule paper it would be ignored"},
       {"replay --case A --min-interval 1", "--min-interval is for --schedule adaptive"},
+      // The guard's move check: a fraction > 0 or inf, and not where no move check runs.
+      {"replay --case A --move-fraction 0", "alc: error: --move-fraction: '0' is not a number > 0 or inf"},
+      {"replay --case A --move-fraction 0.3 --no-guard",
+       "--move-fraction is for the guard's move check; with --no-guard it would be ignored"},
+      {"replay --case A --no-refit --move-fraction inf",
+       "--move-fraction is for the guard's move check; with --no-refit it would be ignored"},
   };
   for (const auto& [args, message] : refused) {
     INFO(args);

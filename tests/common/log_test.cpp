@@ -131,12 +131,7 @@ TEST_CASE("log: distinct_only writes each text once and counts the repeats, and 
   } off;
   const fs::path file = scratch("distinct.log");
   alc::log::configure(to_file(file, spdlog::level::info));
-  const auto count = [&](const std::string& what) {
-    const std::string text = slurp(file);
-    std::size_t n = 0;
-    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
-    return n;
-  };
+  const auto count = [&](const std::string& what) { return alc_test::occurrences(slurp(file), what); };
   alc::log::distinct_only(true);
   for (int i = 0; i < 3; ++i) alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 20.5);
   alc::log::get("runtime")->warn("E_X0C = {} is beyond the plausible limit", 21.5);  // another text

@@ -58,7 +58,7 @@ TEST_CASE("a TOML grid is the product of its axes in file order, plus the fixed 
   CHECK(sets[0].parameters.post_cp_interval_s == 2.5 * 3600.0);
 }
 
-TEST_CASE("options that cannot change a run are left out: ng-meas 0, the adaptive options under the paper schedule or without Post-CP probes, no-confirm under no-refit") {
+TEST_CASE("options that cannot change a run are left out: ng-meas 0, the adaptive options under the paper schedule or without Post-CP probes, no-confirm under no-refit, move-fraction without the move check") {
   const auto keys = [](const std::string& toml) {
     std::vector<std::string> k;
     for (const ParameterSet& s : parse_grid(toml, "g.toml").sets()) k.push_back(s.key);
@@ -91,6 +91,25 @@ TEST_CASE("options that cannot change a run are left out: ng-meas 0, the adaptiv
   CHECK(keys("no-refit = [false, true]\nno-confirm = [false, true]\n") ==
         std::vector<std::string>{"no-refit=false no-confirm=false", "no-refit=false no-confirm=true",
                                  "no-refit=true"});
+  // The guard's move check runs only with the guard, with refits on probes and with Post-CP probes.
+  CHECK(keys("guard = [true, false]\nmove-fraction = [0.5, \"inf\"]\n") ==
+        std::vector<std::string>{"guard=true move-fraction=0.5", "guard=true move-fraction=inf", "guard=false"});
+  CHECK(keys("no-refit = [false, true]\nmove-fraction = [0.25, 1]\n") ==
+        std::vector<std::string>{"no-refit=false move-fraction=0.25", "no-refit=false move-fraction=1", "no-refit=true"});
+  CHECK(keys("interval = [2, \"inf\"]\nmove-fraction = [0.25, 1]\n") ==
+        std::vector<std::string>{"interval=2 move-fraction=0.25", "interval=2 move-fraction=1", "interval=inf"});
+  const std::vector<ParameterSet> sets = parse_grid("move-fraction = [0.25, \"inf\"]\n", "g.toml").sets();
+  REQUIRE(sets.size() == 2);
+  CHECK(sets[0].parameters.move_fraction == 0.25);
+  CHECK(std::isinf(sets[1].parameters.move_fraction));
+  // A run's identity holds the fraction only where it is not the default and a move check runs, so the
+  // runs before the option (and a moot value) keep theirs.
+  CHECK(runtime::canonical_parameters(sets[0].parameters).at("move_fraction") == 0.25);
+  CHECK(runtime::canonical_parameters(sets[1].parameters).at("move_fraction") == "inf");
+  CHECK_FALSE(runtime::canonical_parameters(AlcParameters{}).contains("move_fraction"));
+  AlcParameters unguarded = sets[0].parameters;
+  unguarded.guard = false;
+  CHECK_FALSE(runtime::canonical_parameters(unguarded).contains("move_fraction"));
 }
 
 TEST_CASE("a bad grid names the file, line, key and value before any run") {

@@ -18,6 +18,7 @@
 
 using alc_test::run_alc;
 using alc_test::slurp;
+using alc_test::occurrences;
 namespace fs = std::filesystem;
 
 namespace {
@@ -292,11 +293,7 @@ TEST_CASE("a study tells a sparsely measured recording once per case and each re
   const auto r = run_alc("study --grid " + grid.string() + " " + sparse.string() + " --quiet", "study_cli");
   INFO(r.err);
   REQUIRE(r.exit_code == 0);
-  const auto count = [&](const std::string& what) {
-    std::size_t n = 0;
-    for (auto at = r.err.find(what); at != std::string::npos; at = r.err.find(what, at + 1)) ++n;
-    return n;
-  };
+  const auto count = [&](const std::string& what) { return occurrences(r.err, what); };
   CHECK(count("is measured more sparsely than the schedule asks") == 1);
   CHECK_THAT(r.err, Catch::Contains("file " + sparse.string() + " is measured more sparsely") &&
                         Catch::Contains("in CP every 10 min (median) where the CP interval is 5 min") &&

@@ -72,6 +72,9 @@ struct AlcParameters {
                                            // while the prediction leaves the range of the measured errors, and
                                            // keep compensation within the latest probe's error +- 2 x the
                                            // fastest drift measured x the time since (the drift bound)
+  double move_fraction = 0.5;              // [-] the guard's move check: a Post-CP probe is due as soon as an
+                                           //     output's compensation has moved this x its ACL since the last
+                                           //     probe (or the end of CP or NG); inf: no move check
   // Plausibility (docs/runtime.md, "Plausibility"): a finite reading beyond these magnitudes is a sensor
   // fault, not a thermal error. A probe's error beyond its limit is set aside for that output (an
   // Implausible event; the other outputs of the probe are learned); an input beyond its limit rejects
