@@ -62,11 +62,11 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
                      {"min_interval_s", number(p.min_interval_s)},
                      {"max_interval_s", number(p.max_interval_s)}};
   if (p.guard) j["guard"] = true;
+  const AlcParameters defaults;
   // Added with the move check's option: present only where it can change the run and is not its default.
-  if (p.guard && p.refit_on_probe && p.move_fraction != AlcParameters{}.move_fraction)
+  if (p.guard && p.refit_on_probe && p.move_fraction != defaults.move_fraction)
     j["move_fraction"] = number(p.move_fraction);
   // Added with the plausibility limits: present only where a limit differs from its default.
-  const AlcParameters defaults;
   const std::pair<const char*, double AlcParameters::*> limits[] = {
       {"linear_um", &AlcParameters::plausible_linear_um},
       {"angular_um_per_m", &AlcParameters::plausible_angular_um_per_m},
