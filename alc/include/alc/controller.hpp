@@ -244,7 +244,7 @@ class Controller {
   // At a sample after CP, for a policy that checks each sample: the probe is due now if the evidence says so.
   void check_due(double time_s, ControllerOutput& out);
   // At a sample after CP, under the guard: the probe is due now where an output's compensation by the model
-  // (its prediction with the guard's gain) has moved more than kMoveFraction x its ACL since the last
+  // (its prediction with the guard's gain) has moved more than AlcParameters::move_fraction x its ACL since the last
   // decision (docs/adaptive.md, "The move check").
   void check_move(double time_s, ControllerOutput& out);
   // The probe is due now (one event saying why; the time no longer moves).
