@@ -1,5 +1,6 @@
 // alc replay: run the ALC controller over a recorded or built-in load case and print the paper's
 // indicators beside a static baseline.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -64,6 +65,7 @@ struct ReplayArgs {
   std::string structure_refresh = "1.25";  // factor of data-span growth that triggers a structure search
   std::string db;              // history database, "" = none
   double stop_at_h = kInf;     // [h] of scenario time
+  std::vector<double> probe_at_h;  // [h] of scenario time: probes asked for (--probe-at), ascending, distinct
   bool resume = false;
   double kill_at_h = kInf;     // [h] fault injection for tests: SIGKILL itself at this scenario time
   std::string residuals;
@@ -230,6 +232,8 @@ nlohmann::json identity_of(const ReplayArgs& a, const std::string& name, const s
   // Its chain gives the stored offsets: --resume must repeat the machine, by content (the same file by
   // another path is the same machine; the file edited is another one).
   if (!a.machine.empty()) j["machine_hash"] = machine.content_hash;
+  // The probes asked for change the run's decisions: a --resume must ask for the same.
+  if (!a.probe_at_h.empty()) j["probe_at_h"] = a.probe_at_h;
   return j;
 }
 
@@ -369,6 +373,14 @@ void run_replay(const ReplayArgs& a) {
                                                              {"--cp", a.cp, "--since", a.since});
         !why.empty())
       throw UsageError(why);
+  // A probe asked for after the last sample would never be taken, silently.
+  for (const auto& [name, scenario] : cases)
+    if (!a.probe_at_h.empty() && !scenario.time_s.empty() &&
+        a.probe_at_h.back() * 3600.0 > scenario.time_s.back() - scenario.time_s.front())
+      throw UsageError("--probe-at " + common::shortest_text(a.probe_at_h.back()) + " is after the last sample of " +
+                       (a.file.empty() ? "case " : "") + name + " (" +
+                       common::shortest_text((scenario.time_s.back() - scenario.time_s.front()) / 3600.0) +
+                       " h from its first)");
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;
@@ -458,6 +470,8 @@ void run_replay(const ReplayArgs& a) {
     o.db = a.db;
     o.resume = plans[k] == ResumePlan::Resume;
     o.stop_time_s = std::isfinite(a.stop_at_h) ? t0 + a.stop_at_h * 3600.0 : kInf;
+    for (const double h : a.probe_at_h)
+      o.probe_requests.emplace_back(t0 + h * 3600.0, "--probe-at " + common::shortest_text(h) + " h");
     o.machine = machine;
     o.software_version = std::string("alc ") + ALC_VERSION;
     o.baselines = baselines;
@@ -659,6 +673,31 @@ void add_replay_command(CLI::App& app) {
                     "Stop after H hours of scenario time (from the first sample), save the state and print the "
                     "indicators of the part replayed (needs --db)",
                     0.0, kMaxHours);
+  cmd->add_option_function<std::vector<std::string>>(
+         "--probe-at",
+         [args](const std::vector<std::string>& texts) {
+           for (const std::string& text : texts) {
+             double h = 0.0;
+             try {
+               h = common::parse_number("--probe-at", text, false);
+             } catch (const std::invalid_argument& e) {
+               throw UsageError(e.what());
+             }
+             if (h > kMaxHours)
+               throw UsageError("--probe-at: '" + text + "' is not a number from 0 to " + common::shortest_text(kMaxHours));
+             args->probe_at_h.push_back(h);
+           }
+           std::sort(args->probe_at_h.begin(), args->probe_at_h.end());
+           args->probe_at_h.erase(std::unique(args->probe_at_h.begin(), args->probe_at_h.end()), args->probe_at_h.end());
+         },
+         "Ask for a probe at H hours of scenario time (from the first sample), as someone who knows what no "
+         "input shows would: the machine moved, relevelled, repaired, after a collision. Taken at the first "
+         "sample at or after H in any phase, an ordinary probe of that phase (after CP a breach starts NG); "
+         "a comma-separated list or repeated (docs/adaptive.md, \"Probes asked for\")")
+      ->type_name("H[,H...]")
+      ->delimiter(',')
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_flag("--resume", args->resume,
                 "Continue the latest unfinished run of this scenario in --db from its saved state (found by content "
                 "and parameters: another path to the same data is the same run); with several cases, a finished "

@@ -1,5 +1,7 @@
 // libFuzzer target: the supervisor's MQTT payloads (supervisor/messages.hpp). The first byte picks
-// the topic (even: PREFIX/sample, odd: PREFIX/probe/result), the rest is the payload. Any payload is
+// the topic (odd: PREFIX/probe/result; of the even, 2 mod 4: PREFIX/probe/now, else PREFIX/sample),
+// the rest is the payload. A probe/now accepted has a reason of 1 to 200 bytes and, asked of a started
+// controller, makes a probe due at once with an event that quotes it. Any payload is
 // either refused with a reason, or gives a message of the configured size whose values are finite
 // (a probe result: NaN where not measured, at least one measured). What is accepted then goes to a
 // controller as the supervisor hands it over: bad data never throws there (accepted = false or a
@@ -35,6 +37,30 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const bool probe = (data[0] & 1) != 0;
   const std::string payload(reinterpret_cast<const char*>(data) + 1, size - 1);
   alc::Controller controller(kInputs, kOutputs, alc::AlcParameters{});
+  if (!probe && (data[0] & 3) == 2) {
+    const auto parsed = alc::supervisor::parse_probe_now(payload);
+    if (const auto* r = std::get_if<alc::supervisor::Refusal>(&parsed)) {
+      if (r->reason.empty()) __builtin_trap();
+      return 0;
+    }
+    const std::string& reason = std::get<alc::supervisor::ProbeNowMessage>(parsed).reason;
+    if (reason.empty() || reason.size() > alc::supervisor::kMaxProbeNowReason) __builtin_trap();
+    Eigen::VectorXd inputs(static_cast<Eigen::Index>(kInputs.size()));
+    inputs << 21.0, 21.5, 800.0, 1.0;
+    check_prediction(controller.on_sample(0.0, inputs));
+    const alc::ControllerOutput out = controller.request_probe(0.0, reason);
+    check_prediction(out);
+    // The first sample made the first CP probe due: asked again, nothing changes and nothing is said.
+    if (!out.accepted || !out.events.empty() || out.next_probe_due_s != 0.0) __builtin_trap();
+    // Once it is taken the next is 5 min away (CP): asked at 1 min, it is due then, the reason quoted.
+    if (!controller.on_probe({0.0, Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kOutputs.size())), {}}).accepted)
+      __builtin_trap();
+    const alc::ControllerOutput later = controller.request_probe(60.0, reason);
+    if (!later.accepted || later.events.size() != 1 || later.events[0].reason != "probe requested: " + reason ||
+        later.next_probe_due_s != 60.0)
+      __builtin_trap();
+    return 0;
+  }
   if (!probe) {
     const auto parsed = alc::supervisor::parse_sample(payload, kInputs);
     if (const auto* r = std::get_if<alc::supervisor::Refusal>(&parsed)) {

@@ -275,7 +275,7 @@ void Controller::due_now(double time_s, std::string reason, ControllerOutput& ou
 // else tells a model that runs away to the wrong sign from one that follows the error.
 void Controller::check_move(double time_s, ControllerOutput& out) {
   // It brings a planned probe forward; where the schedule plans none (a Post-CP interval of inf), none is added.
-  if (!params_.guard || !params_.refit_on_probe || !std::isfinite(params_.move_fraction) || !state_.has_model ||
+  if (!params_.move_fraction_read() || !std::isfinite(params_.move_fraction) || !state_.has_model ||
       state_.phase != Phase::PostCalibration || !std::isfinite(state_.next_probe_due_s) ||
       probing::reached(time_s, state_.next_probe_due_s) || state_.schedule_prediction.size() != state_.prediction.size())
     return;
@@ -984,6 +984,28 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
     }
   }
   out.prediction = compensated(t, out);
+  out.next_probe_due_s = state_.next_probe_due_s;
+  return out;
+}
+
+ControllerOutput Controller::request_probe(double time_s, const std::string& reason) {
+  if (!state_.started) return rejected("probe requested before the first input sample");
+  if (!std::isfinite(time_s) || time_s < state_.now_s)
+    return rejected("probe requested at t = " + common::shortest_text(time_s) + " s, before the latest sample (" +
+                    common::shortest_text(state_.now_s) + " s)");
+  ControllerOutput out;
+  if (!probing::reached(time_s, state_.next_probe_due_s)) {
+    const double since_s = std::max(state_.last_probe_s, state_.phase_start_s);
+    state_.next_probe_due_s = time_s;
+    ControllerEvent e;
+    e.type = ControllerEvent::Type::ProbeIntervalChange;
+    e.time_s = time_s;
+    e.from = e.to = state_.phase;
+    e.interval_s = time_s - since_s;
+    e.reason = "probe requested: " + reason;
+    out.events.push_back(std::move(e));
+  }
+  out.prediction = compensated(time_s);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
 }

@@ -95,6 +95,28 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
   return out;
 }
 
+ControllerOutput Driver::request(double time_s, const std::string& reason) {
+  if (!last_) {
+    // Observers see a cycle at the latest sample: a caller asks after one (nothing changes here).
+    ControllerOutput out;
+    out.accepted = false;
+    out.reason = "probe requested before a sample reached this driver";
+    log::get("runtime")->warn("probe request at t = {} s rejected: {}", time_s, out.reason);
+    return out;
+  }
+  const Phase before = controller_.phase();
+  ControllerOutput out = controller_.request_probe(time_s, reason);
+  if (!out.accepted) {
+    log::get("runtime")->warn("probe request at t = {} s rejected: {}", time_s, out.reason);
+    return out;
+  }
+  // Someone asked: told at info whatever it changed.
+  log::get("runtime")->info("t = {} s: probe requested: {}{}", time_s, reason,
+                            out.events.empty() ? " (a probe is due already)" : "");
+  notify(Cycle::Kind::Request, nullptr, out, before);
+  return out;
+}
+
 void Driver::tell(const ControllerOutput& out) {
   for (const ControllerEvent& e : out.events) {
     if (e.type == ControllerEvent::Type::ModelRejected) last_rejected_fit_ = e.reason;
@@ -122,8 +144,11 @@ std::size_t Driver::run(Source& source, double stop_time_s) {
   std::size_t taken = 0;
   while (auto s = source.next(stop_time_s)) {
     ++taken;
+    const double before_s = controller_.state().started ? controller_.state().now_s : -kInf;
     const ControllerOutput out = sample(*s);
     if (!out.accepted) continue;
+    for (const auto& [at_s, reason] : requests_)
+      if (at_s > before_s && at_s <= s->time_s) request(s->time_s, reason);
     if (auto p = source.probe(controller_.state().next_probe_due_s, *s)) probe(*p);
     sample_done();
   }

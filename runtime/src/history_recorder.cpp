@@ -64,7 +64,7 @@ void HistoryRecorder::on_cycle(const Cycle& cycle) {
                                   : std::vector<double>(5, nan);  // no converged compensation: stated, not guessed
     }
     writer_.add(storage::PredictionRecord{run_, s.time_s, to_std(cycle.out().prediction), std::move(offsets)});
-  } else {
+  } else if (cycle.kind() == Cycle::Kind::Probe) {
     // The probe with the phase it was taken in, not the one its handling led to: a breaching Post-CP
     // probe is a Post-CP probe (its PhaseChange event to NG follows in phase_changes).
     const ProbeMeasurement& probe = *cycle.probe();

@@ -32,6 +32,7 @@ Replay::Replay(const scenarios::Scenario& scenario, ReplayOptions options)
   if (const std::string why = resume_problem(options_.resume, options_.baselines); !why.empty())
     throw ResumeRefused(why);
   driver_.add(evaluation_);
+  driver_.set_requests(options_.probe_requests);
   const bool machine = !options_.db.empty() || options_.nc.has_value();
   if (machine) driver_.set_machine({options_.machine.chain, {}});
   if (!options_.db.empty()) {

@@ -64,7 +64,7 @@ nlohmann::json canonical_parameters(const AlcParameters& p, std::string_view sch
   if (p.guard) j["guard"] = true;
   const AlcParameters defaults;
   // Added with the move check's option: present only where it can change the run and is not its default.
-  if (p.guard && p.refit_on_probe && p.move_fraction != defaults.move_fraction)
+  if (p.move_fraction_read() && p.move_fraction != defaults.move_fraction)
     j["move_fraction"] = number(p.move_fraction);
   // Added with the plausibility limits: present only where a limit differs from its default.
   const std::pair<const char*, double AlcParameters::*> limits[] = {

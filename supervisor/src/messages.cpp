@@ -64,6 +64,20 @@ std::variant<SampleMessage, Refusal> parse_sample(const std::string& payload, co
   return m;
 }
 
+std::variant<ProbeNowMessage, Refusal> parse_probe_now(const std::string& payload) {
+  auto parsed = object_of(payload);
+  if (auto* r = std::get_if<Refusal>(&parsed)) return *r;
+  const Json& j = std::get<Json>(parsed);
+  if (auto u = unknown_name(j, {"reason"})) return Refusal{"unknown key '" + *u + "' (only \"reason\")"};
+  const auto reason = j.find("reason");
+  if (reason == j.end() || !reason->is_string()) return Refusal{"reason is missing or not a string"};
+  ProbeNowMessage m{reason->get<std::string>()};
+  if (m.reason.empty() || m.reason.size() > kMaxProbeNowReason)
+    return Refusal{"reason has " + std::to_string(m.reason.size()) + " bytes, not 1 to " +
+                   std::to_string(kMaxProbeNowReason)};
+  return m;
+}
+
 std::variant<ProbeResultMessage, Refusal> parse_probe_result(const std::string& payload,
                                                              const std::vector<std::string>& outputs) {
   auto parsed = object_of(payload);

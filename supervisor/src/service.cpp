@@ -184,7 +184,7 @@ class MqttBus : public Bus {
     ever_connected_ = true;
     unacked_ = 0;
     subscriptions_.clear();
-    for (const char* t : {"/sample", "/probe/result"}) {
+    for (const char* t : {"/sample", "/probe/result", "/probe/now"}) {
       const std::string topic = c_.mqtt.prefix + t;
       int mid = 0;
       if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = topic;
@@ -196,7 +196,12 @@ class MqttBus : public Bus {
     for (int i = 0; i < count; ++i)
       if (granted[i] == 0x80 && refused_topic_.empty()) {
         const auto it = subscriptions_.find(mid);
-        refused_topic_ = it != subscriptions_.end() ? it->second : "a topic";
+        const std::string topic = it != subscriptions_.end() ? it->second : "a topic";
+        // Asking for a probe by hand is optional: a broker that does not let it through costs that, no more.
+        if (topic == c_.mqtt.prefix + "/probe/now")
+          logger()->warn("mqtt: the broker refused the subscription to {}: probes cannot be asked for by hand", topic);
+        else
+          refused_topic_ = topic;
       }
   }
   void message(const mosquitto_message* msg) {

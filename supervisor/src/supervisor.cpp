@@ -299,7 +299,7 @@ void Supervisor::on_message(const std::string& topic, const std::string& payload
                       std::to_string(config_.mqtt.max_payload_bytes));
     return;
   }
-  if (topic != "sample" && topic != "probe/result") {
+  if (topic != "sample" && topic != "probe/result" && topic != "probe/now") {
     reject(topic, "not a topic the supervisor reads");
     return publish("state", state_json(true), true);
   }
@@ -397,6 +397,18 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
     if (idle()) next_seq_ = entry_seq_ + 1;
     return;
   }
+  if (topic == "probe/now") {
+    auto parsed = parse_probe_now(payload);
+    if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
+    // The probe is taken at the latest sample: before the first there is no machine time to take it at.
+    if (!controller_.state().started && held_.empty())
+      return reject(topic, "no sample has been received yet: a probe is asked for at the latest sample");
+    if (asked_) return reject(topic, "a probe asked for on probe/now waits already (" + *asked_ + ")");
+    entry_seq_ = seq >= 0 ? seq : inbox_->append(topic, payload);
+    ask_probe(common::valid_utf8(std::get<ProbeNowMessage>(parsed).reason));
+    if (idle()) next_seq_ = entry_seq_ + 1;
+    return;
+  }
   if (topic == "nc/compensation") return apply_probe_compensation(payload);  // journaled, see supervisor_nc.cpp
   if (topic == "nc/sending" && seq >= 0) {  // journaled (never from the broker), see settle_nc_after_recovery
     entry_seq_ = seq;
@@ -415,6 +427,17 @@ void Supervisor::accept_sample(const SampleMessage& m, const std::string& payloa
   held_.push_back(m);
   drain();
   if (idle()) next_seq_ = entry_seq_ + 1;  // entry_seq_: this sample's, or a delivery journaled while fed
+}
+
+void Supervisor::ask_probe(const std::string& reason) {
+  logger()->info("probe asked for on probe/now: {}", reason);
+  if (!idle() || !driver_.last_sample()) {
+    asked_ = reason;  // taken at the next sample fed (feed; after a restart the first one)
+    return;
+  }
+  driver_.request(controller_.state().now_s, reason);
+  if (probing::reached(controller_.state().now_s, controller_.state().next_probe_due_s))
+    request_probe(controller_.state().now_s);
 }
 
 void Supervisor::drain() {
@@ -461,6 +484,11 @@ void Supervisor::feed(const SampleMessage& m) {
   const ControllerOutput out = driver_.sample(s);
   if (!out.accepted) return reject("sample", out.reason);
   if (offsets_changed_ || m.time_s >= last_offsets_s_ + 900.0) publish_offsets(m.time_s);
+  // A probe asked for while another was outstanding: due at the first sample fed without one.
+  if (asked_ && !outstanding_) {
+    driver_.request(m.time_s, *asked_);
+    asked_.reset();
+  }
   // After a timeout the probe is asked for again at the latest sample received, not at a held one of
   // the backlog: the request's timeout counts from the latest sample, so asking at the first held
   // sample would hold the rest again and release one sample per timeout. (Held samples after a result

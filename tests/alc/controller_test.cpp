@@ -370,6 +370,70 @@ TEST_CASE("controller: CP ends with a first model and the Post-CP interval") {
   CHECK_THAT(out.prediction[1], Catch::Matchers::WithinAbs(d.plant.errors()[1], kLearnedTolerance));
 }
 
+TEST_CASE("controller: a probe asked for is due at once in any phase, says why, and a step it finds starts NG") {
+  Driver d(paper_parameters());
+  // Before the first sample there is no time to take it at: rejected, nothing changes.
+  const auto early = d.controller.request_probe(0.0, "too early");
+  CHECK_FALSE(early.accepted);
+  CHECK(early.reason == "probe requested before the first input sample");
+  CHECK_FALSE(d.controller.state().started);
+  // In CP a probe is due every 5 min: asked at a due time it changes nothing and tells nothing.
+  d.run_until(30 * kMinute + kMinute);  // the probe of 30 min taken
+  const double cp_due = d.controller.state().next_probe_due_s;
+  REQUIRE(cp_due == 35 * kMinute);
+  auto out = d.controller.request_probe(31 * kMinute, "during CP");
+  CHECK(out.accepted);
+  REQUIRE(out.events.size() == 1);  // 4 min before the next CP probe: brought forward
+  CHECK(out.events[0].type == ControllerEvent::Type::ProbeIntervalChange);
+  CHECK(out.events[0].reason == "probe requested: during CP");
+  CHECK(out.events[0].interval_s == 1 * kMinute);  // since the probe of 30 min
+  CHECK(out.next_probe_due_s == 31 * kMinute);
+  out = d.controller.request_probe(31 * kMinute, "again");
+  CHECK(out.accepted);
+  CHECK(out.events.empty());  // due already
+  d.run_until(3 * kHour + 10 * kMinute);  // CP over, the first Post-CP probe at 3 h taken
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  REQUIRE(d.controller.state().next_probe_due_s == 4 * kHour);
+  // Times that cannot be: before the latest sample, not finite.
+  const ControllerState before = d.controller.state();
+  for (const double bad : {d.t - 2 * kMinute, std::numeric_limits<double>::quiet_NaN(),
+                           std::numeric_limits<double>::infinity()}) {
+    out = d.controller.request_probe(bad, "bad time");
+    CHECK_FALSE(out.accepted);
+    CHECK_THAT(out.reason, Catch::StartsWith("probe requested at t = "));
+    CHECK(d.controller.state().next_probe_due_s == before.next_probe_due_s);
+  }
+  // The machine is moved at 3 h 10 min: a step of 7 µm (beyond the ACL of 5 µm) that no input shows,
+  // and someone who knows asks for a probe. It is due at once, not at 4 h, and NG starts there.
+  const double moved = d.t;
+  d.plant.offset_x = 7.0;
+  out = d.controller.request_probe(moved, "the machine was relevelled");
+  CHECK(out.accepted);
+  REQUIRE(out.events.size() == 1);
+  CHECK(out.events[0].reason == "probe requested: the machine was relevelled");
+  CHECK(out.events[0].interval_s == moved - 3 * kHour);
+  CHECK(out.next_probe_due_s == moved);
+  CHECK(out.prediction.size() == 2);
+  const int probes_before = d.controller.state().probe_cycles;
+  d.events.clear();
+  d.run_until(moved + kMinute);  // the sample at `moved` takes the probe
+  CHECK(d.controller.state().probe_cycles == probes_before + 1);
+  const auto phases = d.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(phases.size() == 1);
+  CHECK(phases[0].to == Phase::NoGood);
+  CHECK(phases[0].time_s == moved);
+  // Without the request the step waits for the scheduled probe at 4 h.
+  Driver silent(paper_parameters());
+  silent.run_until(moved);
+  silent.plant.offset_x = 7.0;
+  silent.run_until(4 * kHour);
+  CHECK(silent.of_type(ControllerEvent::Type::PhaseChange).size() == 1);  // CP -> Post-CP only
+  silent.run_until(4 * kHour + kMinute);
+  const auto silent_phases = silent.of_type(ControllerEvent::Type::PhaseChange);
+  REQUIRE(silent_phases.size() == 2);
+  CHECK(silent_phases[1].time_s == 4 * kHour);
+}
+
 TEST_CASE("controller: an ACL breach starts NG, after N probes the model is updated and Post-CP resumes") {
   Driver d(paper_parameters());
   d.run_until(3 * kHour - kMinute);

@@ -536,12 +536,54 @@ TEST_CASE("alc replay --move-fraction: a smaller fraction probes more, inf turns
   CHECK(m_off < m_default);
 }
 
+TEST_CASE("alc replay --probe-at: a probe asked for at H3's move makes no output worse than uncompensated, and resumes") {
+  // H3 at seed 233: the machine is moved at 26 h, E_B0C steps by about -10 µm/m, no input shows it and
+  // the compensation moves too little for the move check: without a word E_B0C ends worse than
+  // uncompensated (docs/adaptive.md). Told of the move, the probe at 26 h breaches and NG refits.
+  const auto outputs_worse = [](const nlohmann::json& j) {
+    std::vector<std::string> worse;
+    for (const auto& [name, o] : j.at("outputs").items())
+      if (o.at("P99").get<double>() > o.at("P99_uncompensated").get<double>()) worse.push_back(name);
+    return worse;
+  };
+  const Run silent = alc("--log-level info replay --case H3 --seed 233 --json");
+  REQUIRE(silent.exit_code == 0);
+  CHECK(outputs_worse(nlohmann::json::parse(silent.out)) == std::vector<std::string>{"E_B0C"});
+  CHECK(silent.err.find("probe requested") == std::string::npos);
+  const Run asked = alc("--log-level info replay --case H3 --seed 233 --json --probe-at 26");
+  INFO(asked.err);
+  REQUIRE(asked.exit_code == 0);
+  const auto j = nlohmann::json::parse(asked.out);
+  CHECK(outputs_worse(j).empty());
+  CHECK(j["outputs"]["E_B0C"]["P99"].get<double>() < nlohmann::json::parse(silent.out)["outputs"]["E_B0C"]["P99"].get<double>());
+  // H3 starts at t = 0: 26 h is t = 93600 s, where a sample is (10-s spacing), and NG starts at it.
+  CHECK(occurrences(asked.err, "t = 93600 s: probe requested: --probe-at 26 h") == 1);
+  CHECK_THAT(asked.err, Catch::Matchers::Contains("t = 93600 s: phase_change: Post-CP -> NG: ACL breach"));
+  // Stopped before the request and resumed: the same indicators, the request taken after the resume;
+  // the requests are part of the run's identity, so a resume without them is refused naming them.
+  const fs::path db = work_dir() / "probe_at.sqlite";
+  fs::remove(db);
+  const std::string base = "replay --case H3 --seed 233 --json --db \"" + db.string() + "\" ";
+  REQUIRE(alc(base + "--probe-at 26 --stop-at 20").exit_code == 0);
+  const Run other = alc(base + "--resume");
+  CHECK(other.exit_code == 2);
+  CHECK_THAT(other.err, Catch::Matchers::Contains("probe_at_h"));
+  const Run resumed = alc(base + "--probe-at 26 --resume");
+  INFO(resumed.err);
+  REQUIRE(resumed.exit_code == 0);
+  CHECK(indicators_of(resumed.out) == indicators_of(asked.out));
+}
+
 TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {
   // Each of these ran (to the end, or at "-1 h", or as 16 h) before; now each is a usage error.
   const char* const refused[][2] = {
       {"replay --case A --db x.sqlite --stop-at nan", "--stop-at: 'nan' is not a number >= 0"},
       {"replay --case A --db x.sqlite --stop-at -inf", "--stop-at: '-inf' is not a number >= 0"},
       {"replay --case A --db x.sqlite --stop-at -1", "--stop-at: '-1' is not a number >= 0"},
+      {"replay --case A --probe-at 1,nan", "--probe-at: 'nan' is not a number >= 0"},
+      {"replay --case A --probe-at -2", "--probe-at: '-2' is not a number >= 0"},
+      // A probe asked for after the last sample would never be taken.
+      {"replay --case H3 --probe-at 10,49", "--probe-at 49 is after the last sample of case H3 (48 h from its first)"},
       // A number, but not one a double holds: said so, not "not a number".
       {"replay --case A --acl-ang 1e-400", "--acl-ang: '1e-400' is out of the range of a double"},
       {"replay --case A --interval 1e999", "--interval: '1e999' is out of the range of a double"},

@@ -242,6 +242,20 @@ TEST_CASE("messages are refused with the reason named") {
   REQUIRE(std::holds_alternative<supervisor::ProbeResultMessage>(largest));
   CHECK(std::get<supervisor::ProbeResultMessage>(largest).id == std::numeric_limits<std::int64_t>::max());
   CHECK(probe_reason("-1") == "");  // a negative id is read; the supervisor refuses it as unknown (below 1)
+  // probe/now: a reason of 1 to 200 bytes, nothing else.
+  const auto now_reason = [](const std::string& p) {
+    const auto r = supervisor::parse_probe_now(p);
+    return std::holds_alternative<supervisor::Refusal>(r) ? std::get<supervisor::Refusal>(r).reason : std::string();
+  };
+  const auto now = supervisor::parse_probe_now("{\"reason\": \"relevelled\"}");
+  REQUIRE(std::holds_alternative<supervisor::ProbeNowMessage>(now));
+  CHECK(std::get<supervisor::ProbeNowMessage>(now).reason == "relevelled");
+  CHECK(now_reason("{}") == "reason is missing or not a string");
+  CHECK(now_reason("{\"reason\": 3}") == "reason is missing or not a string");
+  CHECK(now_reason("{\"reason\": \"\"}") == "reason has 0 bytes, not 1 to 200");
+  CHECK(now_reason("{\"reason\": \"" + std::string(201, 'x') + "\"}") == "reason has 201 bytes, not 1 to 200");
+  CHECK(now_reason("{\"reason\": \"moved\", \"when\": 3}") == "unknown key 'when' (only \"reason\")");
+  CHECK_THAT(now_reason("[\"moved\"]"), Catch::StartsWith("not a JSON object"));
 }
 
 TEST_CASE("case A through the broker equals the replay with every sample stored once and kill -9 plus restart losing nothing") {
@@ -377,10 +391,13 @@ TEST_CASE("bad messages are rejected with the reason and stale sensors hold the 
       {"sample", sample_at(0.0)},
       {"sample", std::string(10 * 1024 * 1024, ' ')},
       {"probe/result", "{\"id\": 99, \"time_s\": 30, \"errors\": {\"E_X0C\": 1}}"},
+      // Through the broker too: the supervisor reads probe/now (the refusal names the key).
+      {"probe/now", "{\"why\": \"moved\"}"},
   };
   const std::vector<std::string> reasons = {"invalid JSON", "input T_WS is missing", "input T_WS is not a number",
                                             "invalid JSON", "time goes backwards", "duplicate sample",
-                                            "payload of 10485760 bytes", "unknown probe id 99"};
+                                            "payload of 10485760 bytes", "unknown probe id 99",
+                                            "unknown key 'why'"};
   for (std::size_t k = 0; k < bad.size(); ++k) {
     c.publish(bad[k].first, bad[k].second);
     REQUIRE(c.until([&] { return c.state().value("rejected", 0) == static_cast<int>(k + 1); }));

@@ -87,6 +87,9 @@ struct AlcParameters {
 
   // Empty if valid, else the first violated constraint naming the field and value.
   std::string validate() const;
+  // Whether move_fraction is read: the move check belongs to the guard and needs the refits on probes
+  // (the paper's literal loop keeps seed 004's schedule). Its `inf` is then read too: no move check.
+  bool move_fraction_read() const { return guard && refit_on_probe; }
   // The largest plausible magnitude of an error of `kind` [µm] / [µm/m], of an input of `kind`.
   double plausible_limit(ErrorKind kind) const;
   double plausible_limit(InputKind kind) const;
@@ -216,6 +219,13 @@ class Controller {
   ControllerOutput on_probe(const ProbeMeasurement& probe);
   // Time passes without data: phase ends and periodic updates that are due happen here.
   ControllerOutput on_tick(double time_s);
+  // Someone who knows what no input shows (the machine moved, relevelled, repaired, after a collision)
+  // asks for a probe: it is due at `time_s` (finite, not before the latest sample), in any phase, and
+  // is that phase's ordinary probe (after CP a breach starts NG, a probe within the ACL is learned
+  // from). One ProbeIntervalChange event "probe requested: <reason>", with the time since the latest
+  // probe (or the phase start) as its interval; none where a probe is due already. The schedule's
+  // interval counts again from that probe. Rejected before the first sample (nothing changes then).
+  ControllerOutput request_probe(double time_s, const std::string& reason);
 
   // A copy of this controller (state and derived caches) that continues with other parameters: a
   // parameter study runs the sets that agree so far as one controller and forks it where their

@@ -46,7 +46,7 @@ struct CompensationSetup {
 // What an observer sees of one controller cycle.
 class Cycle {
  public:
-  enum class Kind { Sample, Probe };
+  enum class Kind { Sample, Probe, Request };  // Request: a probe asked for (Controller::request_probe)
   Cycle(Kind kind, const Sample& sample, const ProbeMeasurement* probe, const ControllerOutput& out,
         const Controller& controller, Phase phase_before, const CompensationSetup* setup);
   Kind kind() const { return kind_; }
@@ -97,10 +97,18 @@ class Driver {
   bool has_machine() const { return setup_.has_value(); }
   const CompensationSetup* machine() const { return setup_ ? &*setup_ : nullptr; }
 
-  // Cycle API. sample() and probe() return the controller's output (also when rejected).
+  // Cycle API. sample(), probe() and request() return the controller's output (also when rejected).
   ControllerOutput sample(const Sample& sample);
   ControllerOutput probe(const ProbeMeasurement& probe);
+  // A probe asked for at `time_s` (Controller::request_probe), after an accepted sample; observers see
+  // a Request cycle at the latest sample.
+  ControllerOutput request(double time_s, const std::string& reason);
   void sample_done();
+
+  // Probes asked for at these times [s] (ascending), each at the first accepted sample of run() at or
+  // after it, before the source is asked for the probe; a time at or before the controller's latest
+  // sample counts as taken (a resumed run continues after them).
+  void set_requests(std::vector<std::pair<double, std::string>> requests) { requests_ = std::move(requests); }
 
   // Pull loop: every sample of `source` before `stop_time_s`; a probe is asked of the source after
   // each sample. Returns the number of samples taken.
@@ -136,6 +144,7 @@ class Driver {
   std::string last_rejected_fit_;
   std::int64_t rejected_samples_ = 0;
   std::string first_rejected_sample_;
+  std::vector<std::pair<double, std::string>> requests_;  // set_requests()
 };
 
 }  // namespace alc::runtime

@@ -36,6 +36,8 @@ struct ReplayOptions {
   std::filesystem::path db;                // history database; empty: none
   bool resume = false;                     // continue the latest unfinished run of `source` in `db`
   double stop_time_s = kInf;               // [s] replay the rows before this scenario time
+  // Probes asked for (Driver::set_requests): [s] of scenario time, ascending, and the reason each names.
+  std::vector<std::pair<double, std::string>> probe_requests;
   double snapshot_every_s = 24 * 3600.0;   // [s] of scenario time
   nc::MachineConfig machine;               // chain of the offsets (history, NC), NC options, limits
   std::optional<NcOutputSetup> nc;         // NC output; none: no commands

@@ -1,7 +1,7 @@
 #pragma once
-// The supervisor's inbox: every accepted message (sample or probe result), committed before it is
-// acted on, in the order it was accepted; and the supervisor's own state at each controller
-// snapshot. A restart restores the latest snapshot of the history and processes the inbox entries
+// The supervisor's inbox: every accepted message (a sample, a probe result, a probe asked for),
+// committed before it is acted on, in the order it was accepted; and the supervisor's own state at
+// each controller snapshot. A restart restores the latest snapshot of the history and processes the inbox entries
 // after it again, so nothing accepted is lost and the decisions are those of an uninterrupted run.
 // Entries before the latest snapshot are deleted (bounded storage). SQLite (WAL) in its own file.
 #include <cstdint>
@@ -18,7 +18,7 @@ namespace alc::supervisor {
 
 struct InboxEntry {
   std::int64_t seq = 0;
-  std::string kind;     // "sample" or "probe/result"
+  std::string kind;     // "sample", "sample/jump", "probe/result", "probe/now", "nc/compensation", "nc/sending"
   std::string payload;  // as received
 };
 

@@ -26,12 +26,21 @@ struct ProbeResultMessage {
   Eigen::VectorXd measured;  // in the order of the configured output names, NaN = not measured
 };
 
+// PREFIX/probe/now: {"reason": "relevelled after the move"}: someone asks for a probe now, knowing
+// what no input shows (the machine moved, relevelled, repaired, after a collision); the reason is a
+// string of 1 to kMaxProbeNowReason bytes and the only key.
+struct ProbeNowMessage {
+  std::string reason;
+};
+constexpr std::size_t kMaxProbeNowReason = 200;
+
 // A message that is refused: why, in one line.
 struct Refusal {
   std::string reason;
 };
 
 std::variant<SampleMessage, Refusal> parse_sample(const std::string& payload, const std::vector<std::string>& inputs);
+std::variant<ProbeNowMessage, Refusal> parse_probe_now(const std::string& payload);
 std::variant<ProbeResultMessage, Refusal> parse_probe_result(const std::string& payload,
                                                              const std::vector<std::string>& outputs);
 

@@ -68,7 +68,7 @@ class Supervisor {
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
 
-  // A message of PREFIX/<topic> ("sample", "probe/result") received at wall-clock time wall_s [s].
+  // A message of PREFIX/<topic> ("sample", "probe/result", "probe/now") received at wall-clock time wall_s [s].
   void on_message(const std::string& topic, const std::string& payload, double wall_s);
   // Wall-clock time passes: stale detection.
   void on_wall_clock(double wall_s);
@@ -108,7 +108,10 @@ class Supervisor {
   void event(nlohmann::json e);
   void publish(const std::string& topic, const std::string& payload, bool retained);
   // Nothing waits: a snapshot may be taken and the inbox pruned up to next_seq_.
-  bool idle() const { return !outstanding_ && held_.empty() && !result_ && !jump_; }
+  bool idle() const { return !outstanding_ && held_.empty() && !result_ && !jump_ && !asked_; }
+  // A probe asked for on probe/now (journaled): due at once when nothing waits, else at the next sample
+  // fed once the probe outstanding is answered or timed out.
+  void ask_probe(const std::string& reason);
   std::string extras_json() const;
   void restore_extras(const std::string& json, double snapshot_s);  // snapshot_s: the snapshot's time
   void begin_or_resume();
@@ -154,6 +157,7 @@ class Supervisor {
     std::int64_t seq;
   };
   std::optional<Jump> jump_;
+  std::optional<std::string> asked_;       // the reason of a probe/now waiting for the next sample fed
   std::int64_t next_id_ = 1;
   std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
   std::int64_t entry_seq_ = 0;             // inbox entry being processed
