@@ -15,6 +15,9 @@ uncompensated (--jobs replays at a time):
 
   python3 scripts/guard_table.py --sweep 3 --jobs 2 --set 'guard (default)='
 
+--sweep h3 runs H3 (the machine moved at 26 h) at its own seed and 1-240, 241 replays: with
+--set 'move told=--probe-at 26' the probe asked for at the move (docs/adaptive.md, "Probes asked for").
+
 --alc defaults to build/release/cli/alc of this checkout (the build of scripts/main.sh), wherever the
 script is run from.
 """
@@ -70,7 +73,8 @@ def _sweep(ad, held, s16):
 
 SWEEPS = {"1": _sweep([None] + list(range(1, 13)), [None] + list(range(1, 81)), [None] + list(range(1, 11))),
           "2": _sweep(range(13, 25), range(81, 161), range(11, 21)),
-          "3": _sweep(range(25, 37), range(161, 241), range(21, 31))}
+          "3": _sweep(range(25, 37), range(161, 241), range(21, 31)),
+          "h3": [("H3", None)] + [("H3", s) for s in range(1, 241)]}
 
 
 def sweep(alc, runs, sets, jobs, tolerance):
@@ -87,7 +91,7 @@ def sweep(alc, runs, sets, jobs, tolerance):
                 worse += [f"{name} {k} {p:.3f} > {u:.3f} (+{100 * (p / u - 1):.1f} %)" for k, p, u in w]
         print(f"{label}: " + " / ".join(
             f"{g} {sum(p for p, _ in v) / len(v):.3f} µm, Pd {sum(d for _, d in v) / len(v):.3f} %"
-            for g, v in groups.items()) + f" over {len(runs)} replays; outputs worse than uncompensated: {len(worse)}")
+            for g, v in groups.items() if v) + f" over {len(runs)} replays; outputs worse than uncompensated: {len(worse)}")
         for w in worse:
             print(f"  {w}")
 
@@ -103,7 +107,7 @@ def main():
     ap.add_argument("--others", default="H1,H2,H3,H4,H5,S16", help="cases run at their own seed")
     ap.add_argument("--tolerance", type=float, default=0.0)
     ap.add_argument("--json", help="write every figure to this file")
-    ap.add_argument("--sweep", choices=sorted(SWEEPS), help="one of the three sets of replays (see above) instead")
+    ap.add_argument("--sweep", choices=sorted(SWEEPS), help="one of the sets of replays (see above) instead")
     ap.add_argument("--jobs", type=int, default=1, help="replays at a time with --sweep (default 1)")
     a = ap.parse_args()
     # A bare name (--alc alc) is looked up on PATH, as subprocess would; a path must be there.

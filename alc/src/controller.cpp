@@ -231,10 +231,11 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
 }
 
 void Controller::schedule_next(double time_s, ControllerOutput& out) {
-  // After the guard's first check (enter) or its move check, a fixed interval is the schedule's again.
+  // After the guard's first check (enter), its move check or a probe asked for (request_probe), a fixed
+  // interval is the schedule's again.
   if (state_.phase == Phase::PostCalibration && !schedule_->checks_each_sample())
     set_interval(schedule_->interval(state_.phase), time_s, out,
-                 "Post-CP interval after the guard's early probe (its first check or move check)");
+                 "Post-CP interval after an early probe (the guard's first check or move check, or one asked for)");
   state_.schedule_since_s = time_s;
   state_.schedule_prediction = state_.prediction;
   const probing::ScheduleContext ctx = schedule_context(time_s);
@@ -983,6 +984,11 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       break;
     }
   }
+  // After a probe asked for in CP or NG (request_probe told the NC its own interval), the phase's again;
+  // after CP, schedule_next says it. Without a request the interval of these phases never differs.
+  if (state_.phase == Phase::Calibration || state_.phase == Phase::NoGood)
+    set_interval(schedule_->interval(state_.phase), t, out, std::string(to_string(state_.phase)) +
+                                                                " interval again after the probe asked for");
   out.prediction = compensated(t, out);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;
@@ -1003,6 +1009,8 @@ ControllerOutput Controller::request_probe(double time_s, const std::string& rea
     e.from = e.to = state_.phase;
     e.interval_s = time_s - since_s;
     e.reason = "probe requested: " + reason;
+    // What the NC was told; the phase's interval is told again after the probe (on_probe).
+    state_.current_interval_s = e.interval_s;
     out.events.push_back(std::move(e));
   }
   out.prediction = compensated(time_s);

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "common/log.hpp"
+#include "probing/schedule.hpp"
 
 namespace alc::runtime {
 
@@ -147,8 +148,9 @@ std::size_t Driver::run(Source& source, double stop_time_s) {
     const double before_s = controller_.state().started ? controller_.state().now_s : -kInf;
     const ControllerOutput out = sample(*s);
     if (!out.accepted) continue;
+    // Within the due tolerance, as the controller's own due times (a time computed from hours).
     for (const auto& [at_s, reason] : requests_)
-      if (at_s > before_s && at_s <= s->time_s) request(s->time_s, reason);
+      if (!probing::reached(before_s, at_s) && probing::reached(s->time_s, at_s)) request(s->time_s, reason);
     if (auto p = source.probe(controller_.state().next_probe_due_s, *s)) probe(*p);
     sample_done();
   }

@@ -400,9 +400,10 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
   if (topic == "probe/now") {
     auto parsed = parse_probe_now(payload);
     if (auto* r = std::get_if<Refusal>(&parsed)) return reject(topic, r->reason);
-    // The probe is taken at the latest sample: before the first there is no machine time to take it at.
+    // Before the first sample there is no model to judge and no machine time; the first probe of CP
+    // comes with the first sample anyway.
     if (!controller_.state().started && held_.empty())
-      return reject(topic, "no sample has been received yet: a probe is asked for at the latest sample");
+      return reject(topic, "no sample has been received yet: the first sample starts CP with a probe");
     if (asked_) return reject(topic, "a probe asked for on probe/now waits already (" + *asked_ + ")");
     entry_seq_ = seq >= 0 ? seq : inbox_->append(topic, payload);
     ask_probe(common::valid_utf8(std::get<ProbeNowMessage>(parsed).reason));
@@ -430,14 +431,11 @@ void Supervisor::accept_sample(const SampleMessage& m, const std::string& payloa
 }
 
 void Supervisor::ask_probe(const std::string& reason) {
+  // Taken at the next sample fed (feed), never at once: a restart processes the journal again from
+  // the latest snapshot, and a request acted on at the snapshot's own sample would be acted on at
+  // another one then (the driver knows no sample before the first fed after a restart).
   logger()->info("probe asked for on probe/now: {}", reason);
-  if (!idle() || !driver_.last_sample()) {
-    asked_ = reason;  // taken at the next sample fed (feed; after a restart the first one)
-    return;
-  }
-  driver_.request(controller_.state().now_s, reason);
-  if (probing::reached(controller_.state().now_s, controller_.state().next_probe_due_s))
-    request_probe(controller_.state().now_s);
+  asked_ = reason;
 }
 
 void Supervisor::drain() {
@@ -484,7 +482,7 @@ void Supervisor::feed(const SampleMessage& m) {
   const ControllerOutput out = driver_.sample(s);
   if (!out.accepted) return reject("sample", out.reason);
   if (offsets_changed_ || m.time_s >= last_offsets_s_ + 900.0) publish_offsets(m.time_s);
-  // A probe asked for while another was outstanding: due at the first sample fed without one.
+  // A probe asked for (probe/now): due at the first sample fed without a probe outstanding.
   if (asked_ && !outstanding_) {
     driver_.request(m.time_s, *asked_);
     asked_.reset();

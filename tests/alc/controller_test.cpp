@@ -377,23 +377,46 @@ TEST_CASE("controller: a probe asked for is due at once in any phase, says why, 
   CHECK_FALSE(early.accepted);
   CHECK(early.reason == "probe requested before the first input sample");
   CHECK_FALSE(d.controller.state().started);
-  // In CP a probe is due every 5 min: asked at a due time it changes nothing and tells nothing.
+  // In CP a probe is due every 5 min: asked 4 min before the next, it is brought forward.
   d.run_until(30 * kMinute + kMinute);  // the probe of 30 min taken
-  const double cp_due = d.controller.state().next_probe_due_s;
-  REQUIRE(cp_due == 35 * kMinute);
+  REQUIRE(d.controller.state().next_probe_due_s == 35 * kMinute);
   auto out = d.controller.request_probe(31 * kMinute, "during CP");
   CHECK(out.accepted);
-  REQUIRE(out.events.size() == 1);  // 4 min before the next CP probe: brought forward
+  REQUIRE(out.events.size() == 1);
   CHECK(out.events[0].type == ControllerEvent::Type::ProbeIntervalChange);
   CHECK(out.events[0].reason == "probe requested: during CP");
-  CHECK(out.events[0].interval_s == 1 * kMinute);  // since the probe of 30 min
+  CHECK(out.events[0].interval_s == 1 * kMinute);  // since the probe of 30 min: what the NC is told
   CHECK(out.next_probe_due_s == 31 * kMinute);
+  // Asked again while it is due: nothing changes, nothing is said.
   out = d.controller.request_probe(31 * kMinute, "again");
   CHECK(out.accepted);
-  CHECK(out.events.empty());  // due already
+  CHECK(out.events.empty());
+  // Once taken, CP's interval is told again (the NC must not keep probing every minute).
+  d.events.clear();
+  d.run_until(32 * kMinute);
+  CHECK(d.controller.state().next_probe_due_s == 36 * kMinute);
+  auto told = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(told.size() == 1);
+  CHECK(told[0].interval_s == 5 * kMinute);
+  CHECK(told[0].reason == "CP interval again after the probe asked for");
   d.run_until(3 * kHour + 10 * kMinute);  // CP over, the first Post-CP probe at 3 h taken
   REQUIRE(d.controller.phase() == Phase::PostCalibration);
   REQUIRE(d.controller.state().next_probe_due_s == 4 * kHour);
+  // After CP, asked where nothing has changed: the probe is within the ACL, and the Post-CP interval
+  // counts again from it and is told again.
+  out = d.controller.request_probe(d.t, "checked after a tool change");
+  REQUIRE(out.events.size() == 1);
+  CHECK(out.events[0].interval_s == 10 * kMinute);  // since the probe of 3 h
+  d.events.clear();
+  const double calm = d.t;
+  d.run_until(calm + kMinute);
+  CHECK(d.of_type(ControllerEvent::Type::PhaseChange).empty());
+  told = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(told.size() == 1);
+  CHECK(told[0].interval_s == 1 * kHour);
+  CHECK_THAT(told[0].reason, Catch::StartsWith("Post-CP interval after an early probe"));
+  CHECK(d.controller.state().next_probe_due_s == calm + 1 * kHour);
+  d.run_until(calm + 10 * kMinute);
   // Times that cannot be: before the latest sample, not finite.
   const ControllerState before = d.controller.state();
   for (const double bad : {d.t - 2 * kMinute, std::numeric_limits<double>::quiet_NaN(),
@@ -403,15 +426,15 @@ TEST_CASE("controller: a probe asked for is due at once in any phase, says why, 
     CHECK_THAT(out.reason, Catch::StartsWith("probe requested at t = "));
     CHECK(d.controller.state().next_probe_due_s == before.next_probe_due_s);
   }
-  // The machine is moved at 3 h 10 min: a step of 7 µm (beyond the ACL of 5 µm) that no input shows,
-  // and someone who knows asks for a probe. It is due at once, not at 4 h, and NG starts there.
+  // The machine is moved at 3 h 20 min: a step of 7 µm (beyond the ACL of 5 µm) that no input shows,
+  // and someone who knows asks for a probe. It is due at once, not at 4 h 10 min, and NG starts there.
   const double moved = d.t;
   d.plant.offset_x = 7.0;
   out = d.controller.request_probe(moved, "the machine was relevelled");
   CHECK(out.accepted);
   REQUIRE(out.events.size() == 1);
   CHECK(out.events[0].reason == "probe requested: the machine was relevelled");
-  CHECK(out.events[0].interval_s == moved - 3 * kHour);
+  CHECK(out.events[0].interval_s == moved - calm);
   CHECK(out.next_probe_due_s == moved);
   CHECK(out.prediction.size() == 2);
   const int probes_before = d.controller.state().probe_cycles;
@@ -422,7 +445,7 @@ TEST_CASE("controller: a probe asked for is due at once in any phase, says why, 
   REQUIRE(phases.size() == 1);
   CHECK(phases[0].to == Phase::NoGood);
   CHECK(phases[0].time_s == moved);
-  // Without the request the step waits for the scheduled probe at 4 h.
+  // Without the requests the step waits for the scheduled probe at 4 h.
   Driver silent(paper_parameters());
   silent.run_until(moved);
   silent.plant.offset_x = 7.0;

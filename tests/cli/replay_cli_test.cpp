@@ -572,6 +572,15 @@ TEST_CASE("alc replay --probe-at: a probe asked for at H3's move makes no output
   INFO(resumed.err);
   REQUIRE(resumed.exit_code == 0);
   CHECK(indicators_of(resumed.out) == indicators_of(asked.out));
+  CHECK(occurrences(alc("--log-level info " + base + "--probe-at 26 --resume").err, "probe requested") == 0);
+  // Stopped after the request: the resumed run does not ask again, and ends as the uninterrupted one.
+  fs::remove(db);
+  REQUIRE(alc(base + "--probe-at 26 --stop-at 30").exit_code == 0);
+  const Run after = alc("--log-level info " + base + "--probe-at 26 --resume");
+  INFO(after.err);
+  REQUIRE(after.exit_code == 0);
+  CHECK(after.err.find("probe requested") == std::string::npos);
+  CHECK(indicators_of(after.out) == indicators_of(asked.out));
 }
 
 TEST_CASE("every numeric option of every command is read by one strict parser (issue 13 item 10)") {

@@ -92,19 +92,25 @@ TEST_CASE("replay: time stamps with fractions of a second probe at the same rows
   // schedule for the rest of the run (M and the NG phases differed from the same recording shifted by
   // 0.5 s). The end of CP likewise: 124200.123 + 3 h is 1 ulp after the recorded 135000.123, and CP
   // ended a sample later (an extra CP probe). Every probe row of the shifted recordings is that of the
-  // unshifted one.
+  // unshifted one. A probe asked for at 3.25 h too (alc replay --probe-at 3.25: 124200.123 + 3.25 h is
+  // 1 ulp after the recorded row, and was taken a sample later, at the next measured row 5 min on).
   Scenario s = synthetic(5);
   ProbeTimes reference;
-  Replay clean(s, in_memory(parameters(), &reference));
+  ReplayOptions clean_options = in_memory(parameters(), &reference);
+  clean_options.probe_requests = {{3.25 * kHour, "asked"}};
+  Replay clean(s, clean_options);
   clean.run();
   REQUIRE(reference.times.size() > 20);
+  REQUIRE(std::find(reference.times.begin(), reference.times.end(), 3.25 * kHour) != reference.times.end());
   // The times as a CSV gives them: the double nearest to the decimal text ("131400.123").
   for (const std::string fraction : {".123", ".5"}) {
     const double shift = 124200.0 + std::stod("0" + fraction);
     Scenario shifted = s;
     for (double& t : shifted.time_s) t = std::stod(std::to_string(static_cast<long long>(t) + 124200) + fraction);
     ProbeTimes probes;
-    Replay session(shifted, in_memory(parameters(), &probes));
+    ReplayOptions options = in_memory(parameters(), &probes);
+    options.probe_requests = {{shifted.time_s.front() + 3.25 * kHour, "asked"}};
+    Replay session(shifted, options);
     session.run();
     CAPTURE(shift);
     REQUIRE(probes.times.size() == reference.times.size());

@@ -187,9 +187,11 @@ TEST_CASE("supervisor: a sample far ahead held while samples wait for a probe re
   sup.stop();
 }
 
-TEST_CASE("supervisor: probe/now asks for a probe at once, waits behind one outstanding, and survives kill -9") {
+TEST_CASE("supervisor: probe/now asks for a probe at the next sample, waits behind one outstanding, and survives kill -9") {
   // Someone who knows what no input shows (the machine was moved, relevelled) asks for a probe.
   Rig rig("probe-now", 5.0);
+  rig.config.history.snapshot_every_s = 36.0;  // a snapshot at every consistent point
+  std::size_t row = 0;
   const pid_t child = ::fork();
   REQUIRE(child >= 0);
   if (child == 0) {
@@ -197,14 +199,13 @@ TEST_CASE("supervisor: probe/now asks for a probe at once, waits behind one outs
     supervisor::Supervisor sup(rig.config, bus, "test");
     int failed = 0;
     const auto expect = [&failed](bool ok, int code) { failed = failed ? failed : (ok ? 0 : code); };
-    // Before the first sample there is no machine time to take it at.
+    // Before the first sample there is nothing to probe against.
     sup.on_message("probe/now", R"({"reason": "too early"})", 0.0);
     expect(sup.counts().rejected == 1, 10);
     expect(bus.last_event("MessageRejected").value("reason", "").find("no sample has been received yet") !=
                std::string::npos, 11);
     // CP (2 h) and the first probes after it, each request answered at once.
     std::int64_t answered = 0;
-    std::size_t row = 0;
     for (; rig.s.time_s[row] < rig.s.time_s[0] + 2.75 * 3600.0; ++row) {
       sup.on_message("sample", rig.sample(row), 0.0);
       const Json request = bus.last("probe/request");
@@ -215,47 +216,56 @@ TEST_CASE("supervisor: probe/now asks for a probe at once, waits behind one outs
     }
     const ControllerState& c = sup.controller().state();
     expect(c.phase == Phase::PostCalibration && c.next_probe_due_s > c.now_s + 600.0, 12);
-    // Asked: the request goes out at once, at the latest sample, the reason in the event.
-    const auto requests = sup.counts().requests;
+    // Asked right after the snapshot of the latest sample, then killed before the next sample: before,
+    // the live run asked at once and the restart at the next sample (another time, an id reused).
     sup.on_message("probe/now", R"({"reason": "relevelled"})", 0.0);
-    expect(sup.counts().requests == requests + 1, 13);
-    expect(bus.last("probe/request")["requested_s"].get<double>() == c.now_s, 14);
-    expect(bus.last_event("probe_interval").value("reason", "") == "probe requested: relevelled", 15);
-    // A second while that probe is out waits for it; a third while the second waits is refused.
-    sup.on_message("probe/now", R"({"reason": "and repaired"})", 0.0);
-    expect(sup.counts().requests == requests + 1 && sup.counts().rejected == 1, 16);
-    sup.on_message("probe/now", R"({"reason": "third"})", 0.0);
-    expect(sup.counts().rejected == 2, 17);
-    expect(bus.last_event("MessageRejected").value("reason", "") ==
-               "a probe asked for on probe/now waits already (and repaired)", 18);
+    expect(bus.last("probe/request")["id"].get<std::int64_t>() == answered, 13);  // none yet
     ::_exit(failed);  // no destructor, nothing stopped: as after kill -9
   }
   int status = 0;
   REQUIRE(::waitpid(child, &status, 0) == child);
   REQUIRE(WIFEXITED(status));
   REQUIRE(WEXITSTATUS(status) == 0);
-  // The restart processes the inbox again: the first request is outstanding, the second waits.
   supervisor::Supervisor sup(rig.config, rig.bus, "test");
   const auto rejected = sup.counts().rejected;
-  sup.announce();  // what a reconnect does: the outstanding request again
-  const Json request = rig.bus.last("probe/request");
-  REQUIRE_FALSE(request.is_null());
-  const std::int64_t id = request["id"].get<std::int64_t>();
-  const double asked_s = request["requested_s"].get<double>();
-  CHECK(Json::parse(sup.state_json(true))["outstanding_probe"] == id);
-  std::size_t row = 0;
-  while (rig.s.time_s[row] <= asked_s) ++row;
-  const int probes = sup.controller().state().probe_cycles;
-  sup.on_message("probe/result", rig.result(id, asked_s), 0.0);
-  CHECK(sup.controller().state().probe_cycles == probes + 1);
-  // The waiting one is asked at the next sample, with its reason.
+  const auto requests = sup.counts().requests;
+  row = static_cast<std::size_t>(sup.controller().state().samples);
+  REQUIRE(sup.controller().state().now_s == rig.s.time_s[row - 1]);
+  REQUIRE(rig.bus.last("probe/request").is_null());
+  // The next sample asks, with the reason, at its own time.
   sup.on_message("sample", rig.sample(row), 0.0);
-  const Json next = rig.bus.last("probe/request");
-  CHECK(next["id"].get<std::int64_t>() == id + 1);
-  CHECK(next["requested_s"].get<double>() == rig.s.time_s[row]);
+  const Json first = rig.bus.last("probe/request");
+  REQUIRE_FALSE(first.is_null());
+  CHECK(sup.counts().requests == requests + 1);
+  CHECK(first["requested_s"].get<double>() == rig.s.time_s[row]);
+  CHECK(rig.bus.last_event("probe_interval").value("reason", "") == "probe requested: relevelled");
+  ++row;
+  // A second while that probe is out waits for it; a third while the second waits is refused.
+  sup.on_message("probe/now", R"({"reason": "and repaired"})", 0.0);
+  sup.on_message("sample", rig.sample(row++), 0.0);  // held: the probe is out
+  CHECK(sup.counts().requests == requests + 1);
+  sup.on_message("probe/now", R"({"reason": "third"})", 0.0);
+  CHECK(sup.counts().rejected == rejected + 1);
+  CHECK(rig.bus.last_event("MessageRejected").value("reason", "") ==
+        "a probe asked for on probe/now waits already (and repaired)");
+  // The result drains the held sample; the waiting one is asked at the next sample fed after it.
+  const int probes = sup.controller().state().probe_cycles;
+  sup.on_message("probe/result", rig.result(first["id"].get<std::int64_t>(), first["requested_s"].get<double>()), 0.0);
+  CHECK(sup.controller().state().probe_cycles == probes + 1);
+  const Json second = rig.bus.last("probe/request");
+  CHECK(second["id"].get<std::int64_t>() == first["id"].get<std::int64_t>() + 1);
+  CHECK(second["requested_s"].get<double>() == rig.s.time_s[row - 1]);
   CHECK(rig.bus.last_event("probe_interval").value("reason", "") == "probe requested: and repaired");
-  CHECK(sup.counts().rejected == rejected);  // nothing refused since the restart
   sup.stop();
+  // The history holds each request once.
+  const storage::HistoryReader r(rig.dir / "h.sqlite");
+  int relevelled = 0, repaired = 0;
+  for (const auto& x : r.probe_interval_changes(r.runs().back().run_id)) {
+    relevelled += x.reason == "probe requested: relevelled";
+    repaired += x.reason == "probe requested: and repaired";
+  }
+  CHECK(relevelled == 1);
+  CHECK(repaired == 1);
 }
 
 TEST_CASE("supervisor: durability power makes the inbox commit with an fsync as the history does") {

@@ -77,7 +77,7 @@ class Cycle {
 class Observer {
  public:
   virtual ~Observer() = default;
-  // After each accepted controller cycle (a sample, or a probe).
+  // After each accepted controller cycle (a sample, a probe, or a probe asked for).
   virtual void on_cycle(const Cycle& /*cycle*/) {}
   // After a sample and the probe it led to: a consistent point (e.g. to save a snapshot).
   // `next_index` is the source index to continue from.
@@ -106,8 +106,8 @@ class Driver {
   void sample_done();
 
   // Probes asked for at these times [s] (ascending), each at the first accepted sample of run() at or
-  // after it, before the source is asked for the probe; a time at or before the controller's latest
-  // sample counts as taken (a resumed run continues after them).
+  // after it (within probing::kDueTolerance_s), before the source is asked for the probe; a time the
+  // controller's latest sample reached counts as taken (a resumed run continues after them).
   void set_requests(std::vector<std::pair<double, std::string>> requests) { requests_ = std::move(requests); }
 
   // Pull loop: every sample of `source` before `stop_time_s`; a probe is asked of the source after

@@ -109,8 +109,8 @@ class Supervisor {
   void publish(const std::string& topic, const std::string& payload, bool retained);
   // Nothing waits: a snapshot may be taken and the inbox pruned up to next_seq_.
   bool idle() const { return !outstanding_ && held_.empty() && !result_ && !jump_ && !asked_; }
-  // A probe asked for on probe/now (journaled): due at once when nothing waits, else at the next sample
-  // fed once the probe outstanding is answered or timed out.
+  // A probe asked for on probe/now (journaled): due at the next sample fed without a probe outstanding
+  // (after its result or timeout).
   void ask_probe(const std::string& reason);
   std::string extras_json() const;
   void restore_extras(const std::string& json, double snapshot_s);  // snapshot_s: the snapshot's time
