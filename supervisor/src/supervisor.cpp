@@ -595,6 +595,7 @@ std::string Supervisor::state_json(bool online) const {
               {"probe_requests", counts_.requests},
               {"probe_timeouts", counts_.timeouts},
               {"outstanding_probe", outstanding_ ? Json(outstanding_->id) : Json()},
+              {"probe_asked", asked_ ? Json(*asked_) : Json()},
               {"rejected", counts_.rejected},
               {"stale", stale_}}
       .dump();

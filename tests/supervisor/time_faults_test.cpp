@@ -232,6 +232,7 @@ TEST_CASE("supervisor: probe/now asks for a probe at the next sample, waits behi
   row = static_cast<std::size_t>(sup.controller().state().samples);
   REQUIRE(sup.controller().state().now_s == rig.s.time_s[row - 1]);
   REQUIRE(rig.bus.last("probe/request").is_null());
+  CHECK(Json::parse(sup.state_json(true))["probe_asked"] == "relevelled");  // waiting, as the state says
   // The next sample asks, with the reason, at its own time.
   sup.on_message("sample", rig.sample(row), 0.0);
   const Json first = rig.bus.last("probe/request");
@@ -239,6 +240,7 @@ TEST_CASE("supervisor: probe/now asks for a probe at the next sample, waits behi
   CHECK(sup.counts().requests == requests + 1);
   CHECK(first["requested_s"].get<double>() == rig.s.time_s[row]);
   CHECK(rig.bus.last_event("probe_interval").value("reason", "") == "probe requested: relevelled");
+  CHECK(Json::parse(sup.state_json(true))["probe_asked"].is_null());
   ++row;
   // A second while that probe is out waits for it; a third while the second waits is refused.
   sup.on_message("probe/now", R"({"reason": "and repaired"})", 0.0);
