@@ -445,6 +445,20 @@ TEST_CASE("controller: a probe asked for is due at once in any phase, says why, 
   REQUIRE(phases.size() == 1);
   CHECK(phases[0].to == Phase::NoGood);
   CHECK(phases[0].time_s == moved);
+  // In NG (probes every 10 min) too: asked 2 min after the breach, then NG's interval told again.
+  REQUIRE(d.controller.state().next_probe_due_s == moved + 10 * kMinute);
+  d.run_until(moved + 2 * kMinute);
+  out = d.controller.request_probe(d.t, "during NG");
+  REQUIRE(out.events.size() == 1);
+  CHECK(out.events[0].interval_s == 2 * kMinute);
+  d.events.clear();
+  d.run_until(moved + 3 * kMinute);
+  REQUIRE(d.controller.phase() == Phase::NoGood);
+  told = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(told.size() == 1);
+  CHECK(told[0].interval_s == 10 * kMinute);
+  CHECK(told[0].reason == "NG interval again after the probe asked for");
+  CHECK(d.controller.state().next_probe_due_s == moved + 12 * kMinute);
   // Without the requests the step waits for the scheduled probe at 4 h.
   Driver silent(paper_parameters());
   silent.run_until(moved);

@@ -110,7 +110,7 @@ struct PhaseAtProbe : Observer {
   std::vector<Phase> phases;
   void on_cycle(const Cycle& cycle) override {
     if (cycle.kind() == Cycle::Kind::Sample) before_probe = cycle.controller().phase();
-    else phases.push_back(before_probe);
+    else if (cycle.kind() == Cycle::Kind::Probe) phases.push_back(before_probe);
   }
 };
 

@@ -220,7 +220,8 @@ class Controller {
   // Time passes without data: phase ends and periodic updates that are due happen here.
   ControllerOutput on_tick(double time_s);
   // Someone who knows what no input shows (the machine moved, relevelled, repaired, after a collision)
-  // asks for a probe: it is due at `time_s` (finite, not before the latest sample), in any phase, and
+  // asks for a probe: it is due at `time_s` (finite, not before the latest sample: the latest sample's
+  // time, as every caller gives it; a probe due by then already serves), in any phase, and
   // is that phase's ordinary probe (after CP a breach starts NG, a probe within the ACL is learned
   // from). One ProbeIntervalChange event "probe requested: <reason>", with the time since the latest
   // probe (or the phase start) as its interval; none where a probe is due already. The schedule's
