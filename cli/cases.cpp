@@ -38,21 +38,26 @@ std::uint64_t whole_option_value(const std::string& name, const std::string& tex
   }
 }
 
+double number_option_value(const std::string& name, const std::string& text, double lo, double hi, bool allow_inf) {
+  double v = 0.0;
+  try {
+    v = common::parse_number(name, text, allow_inf);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  if (v < lo || v > hi)
+    throw UsageError(name + ": '" + text + "' is not a number from " + common::shortest_text(lo) + " to " +
+                     common::shortest_text(hi));
+  return v;
+}
+
 CLI::Option* add_number_option(CLI::App* cmd, const std::string& name, double& target, const std::string& help,
                                double lo, double hi, bool allow_inf) {
   return cmd
       ->add_option_function<std::string>(
-          name, [&target, name, lo, hi, allow_inf](const std::string& text) {
-            double v = 0.0;
-            try {
-              v = common::parse_number(name, text, allow_inf);
-            } catch (const std::invalid_argument& e) {
-              throw UsageError(e.what());
-            }
-            if (v < lo || v > hi)
-              throw UsageError(name + ": '" + text + "' is not a number from " + common::shortest_text(lo) + " to " +
-                               common::shortest_text(hi));
-            target = v;
+          name,
+          [&target, name, lo, hi, allow_inf](const std::string& text) {
+            target = number_option_value(name, text, lo, hi, allow_inf);
           },
           help)
       ->type_name(allow_inf ? "NUMBER|inf" : "NUMBER");

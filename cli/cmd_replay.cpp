@@ -368,19 +368,17 @@ void run_replay(const ReplayArgs& a) {
   // Judged before the replay (as alc simulate judges --out): a missing directory found only when the
   // residuals were written cost the whole replay, its run already stored in --db.
   refuse_unwritable_output("--residuals", a.residuals);
-  for (const auto& [name, scenario] : cases)
-    if (const std::string why = runtime::scenario_problem(scenario, params, (a.file.empty() ? "case " : "") + name,
-                                                             {"--cp", a.cp, "--since", a.since});
+  for (const auto& [name, scenario] : cases) {
+    const std::string what = (a.file.empty() ? "case " : "") + name;
+    if (const std::string why = runtime::scenario_problem(scenario, params, what, {"--cp", a.cp, "--since", a.since});
         !why.empty())
       throw UsageError(why);
-  // A probe asked for after the last sample would never be taken, silently.
-  for (const auto& [name, scenario] : cases)
-    if (!a.probe_at_h.empty() && !scenario.time_s.empty() &&
-        a.probe_at_h.back() * 3600.0 > scenario.time_s.back() - scenario.time_s.front())
+    // A probe asked for after the last sample would never be taken, silently.
+    const double span_s = scenario.time_s.empty() ? 0.0 : scenario.time_s.back() - scenario.time_s.front();
+    if (!a.probe_at_h.empty() && !scenario.time_s.empty() && a.probe_at_h.back() * 3600.0 > span_s)
       throw UsageError("--probe-at " + common::shortest_text(a.probe_at_h.back()) + " is after the last sample of " +
-                       (a.file.empty() ? "case " : "") + name + " (" +
-                       common::shortest_text((scenario.time_s.back() - scenario.time_s.front()) / 3600.0) +
-                       " h from its first)");
+                       what + " (" + common::shortest_text(span_s / 3600.0) + " h from its first)");
+  }
   if ((a.resume || std::isfinite(a.stop_at_h)) && a.db.empty()) throw UsageError("--stop-at and --resume need --db");
   nc::MachineConfig machine;
   nc::Dialect dialect = nc::Dialect::LinuxCNC;
@@ -676,17 +674,8 @@ void add_replay_command(CLI::App& app) {
   cmd->add_option_function<std::vector<std::string>>(
          "--probe-at",
          [args](const std::vector<std::string>& texts) {
-           for (const std::string& text : texts) {
-             double h = 0.0;
-             try {
-               h = common::parse_number("--probe-at", text, false);
-             } catch (const std::invalid_argument& e) {
-               throw UsageError(e.what());
-             }
-             if (h > kMaxHours)
-               throw UsageError("--probe-at: '" + text + "' is not a number from 0 to " + common::shortest_text(kMaxHours));
-             args->probe_at_h.push_back(h);
-           }
+           for (const std::string& text : texts)
+             args->probe_at_h.push_back(number_option_value("--probe-at", text, 0.0, kMaxHours));
            std::sort(args->probe_at_h.begin(), args->probe_at_h.end());
            args->probe_at_h.erase(std::unique(args->probe_at_h.begin(), args->probe_at_h.end()), args->probe_at_h.end());
          },

@@ -81,6 +81,10 @@ void add_report_command(CLI::App& app);
 // `target` must outlive the parse (a member of the command's shared argument struct).
 CLI::Option* add_number_option(CLI::App* cmd, const std::string& name, double& target, const std::string& help,
                                double lo, double hi, bool allow_inf = false);
+// The value of a number option, lo…hi (common::parse_number; the reading add_number_option makes of
+// each value); throws UsageError.
+double number_option_value(const std::string& name, const std::string& text, double lo, double hi,
+                           bool allow_inf = false);
 // The value of a whole-number option, lo…hi (common::parse_whole_number); throws UsageError.
 std::uint64_t whole_option_value(const std::string& name, const std::string& text, std::uint64_t lo, std::uint64_t hi);
 template <class Int>

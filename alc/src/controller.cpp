@@ -255,17 +255,17 @@ void Controller::schedule_next(double time_s, ControllerOutput& out) {
 void Controller::check_due(double time_s, ControllerOutput& out) {
   const probing::ScheduleContext ctx = schedule_context(time_s);
   if (schedule_->next_due(ctx) > time_s) return;
-  due_now(time_s, schedule_->explain(ctx), out);
+  due_now(time_s, state_.schedule_since_s, schedule_->explain(ctx), out);
 }
 
-void Controller::due_now(double time_s, std::string reason, ControllerOutput& out) {
+void Controller::due_now(double time_s, double since_s, std::string reason, ControllerOutput& out) {
   // Due: the probe is taken at the first chance from here (one event, the time no longer moves).
   state_.next_probe_due_s = time_s;
   ControllerEvent e;
   e.type = ControllerEvent::Type::ProbeIntervalChange;
   e.time_s = time_s;
   e.from = e.to = state_.phase;
-  e.interval_s = time_s - state_.schedule_since_s;
+  e.interval_s = time_s - since_s;
   e.reason = std::move(reason);
   state_.current_interval_s = e.interval_s;
   out.events.push_back(std::move(e));
@@ -290,7 +290,7 @@ void Controller::check_move(double time_s, ControllerOutput& out) {
     why << "the guard's move check: the compensation of " << output_names_[static_cast<std::size_t>(i)]
         << " moved " << moved << " since t = " << common::shortest_text(state_.schedule_since_s)
         << " s (the last probe, or the end of CP or NG), more than " << params_.move_fraction << " x its ACL (" << limit << "): probe now";
-    due_now(time_s, why.str(), out);
+    due_now(time_s, state_.schedule_since_s, why.str(), out);
     return;
   }
 }
@@ -1000,19 +1000,10 @@ ControllerOutput Controller::request_probe(double time_s, const std::string& rea
     return rejected("probe requested at t = " + common::shortest_text(time_s) + " s, before the latest sample (" +
                     common::shortest_text(state_.now_s) + " s)");
   ControllerOutput out;
-  if (!probing::reached(time_s, state_.next_probe_due_s)) {
-    const double since_s = std::max(state_.last_probe_s, state_.phase_start_s);
-    state_.next_probe_due_s = time_s;
-    ControllerEvent e;
-    e.type = ControllerEvent::Type::ProbeIntervalChange;
-    e.time_s = time_s;
-    e.from = e.to = state_.phase;
-    e.interval_s = time_s - since_s;
-    e.reason = "probe requested: " + reason;
-    // What the NC was told; the phase's interval is told again after the probe (on_probe).
-    state_.current_interval_s = e.interval_s;
-    out.events.push_back(std::move(e));
-  }
+  // The interval the NC is told counts from the latest probe (or the phase start); the phase's own is
+  // told again after the probe (on_probe, schedule_next).
+  if (!probing::reached(time_s, state_.next_probe_due_s))
+    due_now(time_s, std::max(state_.last_probe_s, state_.phase_start_s), "probe requested: " + reason, out);
   out.prediction = compensated(time_s);
   out.next_probe_due_s = state_.next_probe_due_s;
   return out;

@@ -97,16 +97,15 @@ ControllerOutput Driver::probe(const ProbeMeasurement& probe) {
 }
 
 ControllerOutput Driver::request(double time_s, const std::string& reason) {
-  if (!last_) {
-    // Observers see a cycle at the latest sample: a caller asks after one (nothing changes here).
-    ControllerOutput out;
+  const Phase before = controller_.phase();
+  ControllerOutput out;
+  // Observers see a cycle at the latest sample: a caller asks after one (nothing changes here before).
+  if (last_) {
+    out = controller_.request_probe(time_s, reason);
+  } else {
     out.accepted = false;
     out.reason = "probe requested before a sample reached this driver";
-    log::get("runtime")->warn("probe request at t = {} s rejected: {}", time_s, out.reason);
-    return out;
   }
-  const Phase before = controller_.phase();
-  ControllerOutput out = controller_.request_probe(time_s, reason);
   if (!out.accepted) {
     log::get("runtime")->warn("probe request at t = {} s rejected: {}", time_s, out.reason);
     return out;

@@ -406,8 +406,12 @@ void Supervisor::process(const std::string& topic, const std::string& payload, s
       return reject(topic, "no sample has been received yet: the first sample starts CP with a probe");
     if (asked_) return reject(topic, "a probe asked for on probe/now waits already (" + *asked_ + ")");
     entry_seq_ = seq >= 0 ? seq : inbox_->append(topic, payload);
-    ask_probe(common::valid_utf8(std::get<ProbeNowMessage>(parsed).reason));
-    if (idle()) next_seq_ = entry_seq_ + 1;
+    // Taken at the next sample fed (feed), never at once: a restart processes the journal again from
+    // the latest snapshot, and a request acted on at the snapshot's own sample would be acted on at
+    // another one then (the driver knows no sample before the first fed after a restart). Not idle()
+    // while it waits: no snapshot or prune passes this entry.
+    asked_ = common::valid_utf8(std::get<ProbeNowMessage>(parsed).reason);
+    logger()->info("probe asked for on probe/now: {}", *asked_);
     return;
   }
   if (topic == "nc/compensation") return apply_probe_compensation(payload);  // journaled, see supervisor_nc.cpp
@@ -428,14 +432,6 @@ void Supervisor::accept_sample(const SampleMessage& m, const std::string& payloa
   held_.push_back(m);
   drain();
   if (idle()) next_seq_ = entry_seq_ + 1;  // entry_seq_: this sample's, or a delivery journaled while fed
-}
-
-void Supervisor::ask_probe(const std::string& reason) {
-  // Taken at the next sample fed (feed), never at once: a restart processes the journal again from
-  // the latest snapshot, and a request acted on at the snapshot's own sample would be acted on at
-  // another one then (the driver knows no sample before the first fed after a restart).
-  logger()->info("probe asked for on probe/now: {}", reason);
-  asked_ = reason;
 }
 
 void Supervisor::drain() {

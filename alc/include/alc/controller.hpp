@@ -258,8 +258,8 @@ class Controller {
   // (its prediction with the guard's gain) has moved more than AlcParameters::move_fraction x its ACL since the last
   // decision (docs/adaptive.md, "The move check").
   void check_move(double time_s, ControllerOutput& out);
-  // The probe is due now (one event saying why; the time no longer moves).
-  void due_now(double time_s, std::string reason, ControllerOutput& out);
+  // The probe is due now (one event saying why, its interval counted from `since_s`; the time no longer moves).
+  void due_now(double time_s, double since_s, std::string reason, ControllerOutput& out);
   // A Post-CP probe's residuals (against the prediction when it ran): the drift and kappa evidence.
   void weigh_schedule(double time_s, const Eigen::VectorXd& residuals);
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).

@@ -109,9 +109,6 @@ class Supervisor {
   void publish(const std::string& topic, const std::string& payload, bool retained);
   // Nothing waits: a snapshot may be taken and the inbox pruned up to next_seq_.
   bool idle() const { return !outstanding_ && held_.empty() && !result_ && !jump_ && !asked_; }
-  // A probe asked for on probe/now (journaled): due at the next sample fed without a probe outstanding
-  // (after its result or timeout).
-  void ask_probe(const std::string& reason);
   std::string extras_json() const;
   void restore_extras(const std::string& json, double snapshot_s);  // snapshot_s: the snapshot's time
   void begin_or_resume();
@@ -157,7 +154,9 @@ class Supervisor {
     std::int64_t seq;
   };
   std::optional<Jump> jump_;
-  std::optional<std::string> asked_;       // the reason of a probe/now waiting for the next sample fed
+  // The reason of a probe/now (journaled) waiting for the next sample fed without a probe outstanding
+  // (after its result or timeout), where it is made due.
+  std::optional<std::string> asked_;
   std::int64_t next_id_ = 1;
   std::int64_t next_seq_ = 0;              // inbox entry after the last one processed
   std::int64_t entry_seq_ = 0;             // inbox entry being processed
