@@ -184,10 +184,10 @@ class MqttBus : public Bus {
     ever_connected_ = true;
     unacked_ = 0;
     subscriptions_.clear();
-    for (const char* t : {"/sample", "/probe/result", "/probe/now"}) {
-      const std::string topic = c_.mqtt.prefix + t;
+    for (const InboundTopic& t : kInboundTopics) {
+      const std::string topic = c_.mqtt.prefix + "/" + t.name;
       int mid = 0;
-      if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = topic;
+      if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = {topic, t.required};
     }
     logger()->info("mqtt: connected to {}:{} as {}", c_.mqtt.host, c_.mqtt.port, c_.mqtt.client_id);
   }
@@ -196,9 +196,9 @@ class MqttBus : public Bus {
     for (int i = 0; i < count; ++i)
       if (granted[i] == 0x80 && refused_topic_.empty()) {
         const auto it = subscriptions_.find(mid);
-        const std::string topic = it != subscriptions_.end() ? it->second : "a topic";
+        const std::string topic = it != subscriptions_.end() ? it->second.first : "a topic";
         // Asking for a probe by hand is optional: a broker that does not let it through costs that, no more.
-        if (topic == c_.mqtt.prefix + "/probe/now")
+        if (it != subscriptions_.end() && !it->second.second)
           logger()->warn("mqtt: the broker refused the subscription to {}: probes cannot be asked for by hand", topic);
         else
           refused_topic_ = topic;
@@ -220,7 +220,8 @@ class MqttBus : public Bus {
   Supervisor* s_ = nullptr;
   StatusModel* status_ = nullptr;
   std::string last_error_;
-  std::map<int, std::string> subscriptions_;  // message id -> topic, of this connection's subscriptions
+  // message id -> (topic, required), of this connection's subscriptions
+  std::map<int, std::pair<std::string, bool>> subscriptions_;
   std::string refused_topic_;                 // a subscription the broker refused
   bool ever_connected_ = false;
   bool first_ = true;

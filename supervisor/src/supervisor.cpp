@@ -1,5 +1,6 @@
 #include "supervisor/supervisor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -299,7 +300,7 @@ void Supervisor::on_message(const std::string& topic, const std::string& payload
                       std::to_string(config_.mqtt.max_payload_bytes));
     return;
   }
-  if (topic != "sample" && topic != "probe/result" && topic != "probe/now") {
+  if (std::none_of(kInboundTopics.begin(), kInboundTopics.end(), [&](const InboundTopic& t) { return topic == t.name; })) {
     reject(topic, "not a topic the supervisor reads");
     return publish("state", state_json(true), true);
   }

@@ -491,3 +491,29 @@ TEST_CASE("a subscription the broker's ACL refuses is a clear error, not a super
   CHECK_THAT(read_text(dir / "alc.log"), Catch::Contains("[critical] [supervisor] stopped: the broker") &&
                                              Catch::Contains("refused the subscription to alc/dmu-1/"));
 }
+
+TEST_CASE("a broker that refuses only the subscription to probe/now costs a warning, not the start") {
+  // Asking for a probe by hand is optional (kInboundTopics): the supervisor runs on without it.
+  MosquittoLib lib;
+  const fs::path dir = temp_dir("acl-probe-now");
+  BrokerOptions o;
+  o.refuse_topic = "alc/dmu-1/probe/now";
+  Broker broker(dir, o);
+  write(dir / "s.toml", small_config(broker.port));
+  Client c(broker.port, "observer");
+  pid_t pid = start_supervisor(dir);
+  const ChildGuard guard{pid};
+  first_sample(c);
+  // Not delivered to the supervisor: nothing waits and nothing is rejected; samples go on.
+  c.publish("probe/now", R"({"reason": "relevelled"})");
+  c.publish("sample", sample_at(60.0));
+  REQUIRE(c.until([&] { return c.state().value("received", 0) == 2; }));
+  CHECK(c.state()["probe_asked"].is_null());
+  CHECK(c.state()["rejected"] == 0);
+  CHECK_THAT(read_text(dir / "supervisor.log"),
+             Catch::Contains("the broker refused the subscription to alc/dmu-1/probe/now: probes cannot be asked "
+                             "for by hand"));
+  ::kill(pid, SIGTERM);
+  CHECK(wait_exit(pid) == 0);
+  pid = -1;
+}

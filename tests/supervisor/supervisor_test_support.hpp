@@ -115,6 +115,8 @@ struct BrokerOptions {
   // Mosquitto's dynamic-security plugin denying every subscription (answered 0x80 in the SUBACK;
   // an acl_file never refuses a subscription, it only withholds the messages).
   bool refuse_subscriptions = false;
+  // The same plugin refusing only the subscription to this topic (literal), granting the others.
+  std::string refuse_topic;
 };
 
 struct Broker {
@@ -140,9 +142,18 @@ struct Broker {
     } else {
       conf += "allow_anonymous true\n";
     }
-    if (o.refuse_subscriptions) {
-      write(dir / "dynsec.json", "{\"defaultACLAccess\": {\"publishClientSend\": true, \"publishClientReceive\": true, "
-                                 "\"subscribe\": false, \"unsubscribe\": true}, \"clients\": [], \"groups\": [], \"roles\": []}\n");
+    if (o.refuse_subscriptions || !o.refuse_topic.empty()) {
+      // Anonymous clients are in the group "anon", whose role denies the one topic.
+      const std::string roles =
+          o.refuse_topic.empty()
+              ? "\"groups\": [], \"roles\": []"
+              : "\"groups\": [{\"groupname\": \"anon\", \"roles\": [{\"rolename\": \"deny\"}]}], \"roles\": "
+                "[{\"rolename\": \"deny\", \"acls\": [{\"acltype\": \"subscribeLiteral\", \"topic\": \"" +
+                    o.refuse_topic + "\", \"priority\": 0, \"allow\": false}]}], \"anonymousGroup\": \"anon\"";
+      write(dir / "dynsec.json", std::string("{\"defaultACLAccess\": {\"publishClientSend\": true, \"publishClientReceive\": "
+                                             "true, \"subscribe\": ") +
+                                     (o.refuse_subscriptions ? "false" : "true") +
+                                     ", \"unsubscribe\": true}, \"clients\": [], " + roles + "}\n");
       conf += "plugin /usr/lib/x86_64-linux-gnu/mosquitto_dynamic_security.so\nplugin_opt_config_file " +
               (dir / "dynsec.json").string() + "\n";
     }

@@ -10,6 +10,7 @@
 //   from at its own time and the decisions depend only on the order of the samples; offsets do not
 //   change during a probe cycle (the probe measures with one compensation, the one added back);
 // - a result that does not come within probe_timeout_s of machine time is given up and reported.
+#include <array>
 #include <deque>
 #include <nlohmann/json.hpp>
 #include <memory>
@@ -40,6 +41,16 @@ inline constexpr const char* kRunSourcePrefix = "supervisor ";
 inline std::string run_source(const std::string& machine_id) { return kRunSourcePrefix + machine_id; }
 inline bool is_run_source(const std::string& source) { return source.rfind(kRunSourcePrefix, 0) == 0; }
 
+// The topics the supervisor reads, below the prefix: the service subscribes to these, on_message
+// takes these and rejects any other. An optional one (asking for a probe by hand) the broker may
+// refuse at the cost of a warning; a refused required one stops the start.
+struct InboundTopic {
+  const char* name;
+  bool required;
+};
+inline constexpr std::array<InboundTopic, 3> kInboundTopics{
+    {{"sample", true}, {"probe/result", true}, {"probe/now", false}}};
+
 class Inbox;
 class NcLink;
 class ErrorSpace;
@@ -68,7 +79,7 @@ class Supervisor {
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
 
-  // A message of PREFIX/<topic> ("sample", "probe/result", "probe/now") received at wall-clock time wall_s [s].
+  // A message of PREFIX/<topic> (one of kInboundTopics) received at wall-clock time wall_s [s].
   void on_message(const std::string& topic, const std::string& payload, double wall_s);
   // Wall-clock time passes: stale detection.
   void on_wall_clock(double wall_s);
