@@ -188,7 +188,7 @@ struct Client {
   mosquitto* m = nullptr;
   std::vector<std::pair<std::string, std::string>> received;
   std::map<std::string, std::string> retained_last;
-  std::int64_t acknowledged = 0;  // QoS 1 publishes the broker acknowledged
+  std::set<int> in_flight;  // message ids of QoS 1 publishes the broker has not acknowledged yet
   bool persistent = false;
   bool connected = false;  // the broker accepted the connection and has not been lost since
   std::vector<std::pair<std::string, std::string>> pending;  // published while not connected
@@ -204,7 +204,7 @@ struct Client {
                                                        static_cast<std::size_t>(msg->payloadlen)));
       c->retained_last[msg->topic] = c->received.back().second;
     });
-    mosquitto_publish_callback_set(m, [](mosquitto*, void* self, int) { ++static_cast<Client*>(self)->acknowledged; });
+    mosquitto_publish_callback_set(m, [](mosquitto*, void* self, int mid) { static_cast<Client*>(self)->in_flight.erase(mid); });
     mosquitto_connect_callback_set(m, [](mosquitto*, void* self, int rc) { static_cast<Client*>(self)->connected = rc == 0; });
     mosquitto_disconnect_callback_set(m, [](mosquitto*, void* self, int) { static_cast<Client*>(self)->connected = false; });
     REQUIRE(mosquitto_connect(m, "127.0.0.1", port, 30) == MOSQ_ERR_SUCCESS);
@@ -222,10 +222,12 @@ struct Client {
       pending.emplace_back(topic, payload);
       return;
     }
-    const int rc = mosquitto_publish(m, nullptr, ("alc/dmu-1/" + topic).c_str(), static_cast<int>(payload.size()),
+    int mid = 0;
+    const int rc = mosquitto_publish(m, &mid, ("alc/dmu-1/" + topic).c_str(), static_cast<int>(payload.size()),
                                      payload.data(), 1, false);
     if (persistent && rc != MOSQ_ERR_SUCCESS) pending.emplace_back(topic, payload);  // the loss not seen yet
     else REQUIRE(rc == MOSQ_ERR_SUCCESS);
+    if (rc == MOSQ_ERR_SUCCESS) in_flight.insert(mid);
   }
   void loop(int ms = 20) {
     const int rc = mosquitto_loop(m, ms, 1);
