@@ -187,7 +187,7 @@ class MqttBus : public Bus {
     for (const InboundTopic& t : kInboundTopics) {
       const std::string topic = c_.mqtt.prefix + "/" + t.name;
       int mid = 0;
-      if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = {topic, t.required};
+      if (mosquitto_subscribe(m_, &mid, topic.c_str(), 1) == MOSQ_ERR_SUCCESS) subscriptions_[mid] = &t;
     }
     logger()->info("mqtt: connected to {}:{} as {}", c_.mqtt.host, c_.mqtt.port, c_.mqtt.client_id);
   }
@@ -196,10 +196,11 @@ class MqttBus : public Bus {
     for (int i = 0; i < count; ++i)
       if (granted[i] == 0x80 && refused_topic_.empty()) {
         const auto it = subscriptions_.find(mid);
-        const std::string topic = it != subscriptions_.end() ? it->second.first : "a topic";
-        // Asking for a probe by hand is optional: a broker that does not let it through costs that, no more.
-        if (it != subscriptions_.end() && !it->second.second)
-          logger()->warn("mqtt: the broker refused the subscription to {}: probes cannot be asked for by hand", topic);
+        const InboundTopic* t = it != subscriptions_.end() ? it->second : nullptr;
+        const std::string topic = t ? c_.mqtt.prefix + "/" + t->name : "a topic";
+        // An optional topic (asking for a probe by hand): a broker that does not let it through costs that, no more.
+        if (t && t->if_refused)
+          logger()->warn("mqtt: the broker refused the subscription to {}: {}", topic, t->if_refused);
         else
           refused_topic_ = topic;
       }
@@ -220,8 +221,7 @@ class MqttBus : public Bus {
   Supervisor* s_ = nullptr;
   StatusModel* status_ = nullptr;
   std::string last_error_;
-  // message id -> (topic, required), of this connection's subscriptions
-  std::map<int, std::pair<std::string, bool>> subscriptions_;
+  std::map<int, const InboundTopic*> subscriptions_;  // message id -> topic, of this connection's subscriptions
   std::string refused_topic_;                 // a subscription the broker refused
   bool ever_connected_ = false;
   bool first_ = true;

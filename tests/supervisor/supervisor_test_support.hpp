@@ -116,7 +116,7 @@ struct BrokerOptions {
   // an acl_file never refuses a subscription, it only withholds the messages).
   bool refuse_subscriptions = false;
   // The same plugin refusing only the subscription to this topic (literal), granting the others.
-  std::string refuse_topic;
+  std::string refuse_topic{};
 };
 
 struct Broker {
@@ -143,17 +143,18 @@ struct Broker {
       conf += "allow_anonymous true\n";
     }
     if (o.refuse_subscriptions || !o.refuse_topic.empty()) {
-      // Anonymous clients are in the group "anon", whose role denies the one topic.
-      const std::string roles =
-          o.refuse_topic.empty()
-              ? "\"groups\": [], \"roles\": []"
-              : "\"groups\": [{\"groupname\": \"anon\", \"roles\": [{\"rolename\": \"deny\"}]}], \"roles\": "
-                "[{\"rolename\": \"deny\", \"acls\": [{\"acltype\": \"subscribeLiteral\", \"topic\": \"" +
-                    o.refuse_topic + "\", \"priority\": 0, \"allow\": false}]}], \"anonymousGroup\": \"anon\"";
-      write(dir / "dynsec.json", std::string("{\"defaultACLAccess\": {\"publishClientSend\": true, \"publishClientReceive\": "
-                                             "true, \"subscribe\": ") +
-                                     (o.refuse_subscriptions ? "false" : "true") +
-                                     ", \"unsubscribe\": true}, \"clients\": [], " + roles + "}\n");
+      Json dynsec = {{"defaultACLAccess",
+                      {{"publishClientSend", true}, {"publishClientReceive", true},
+                       {"subscribe", !o.refuse_subscriptions}, {"unsubscribe", true}}},
+                     {"clients", Json::array()}, {"groups", Json::array()}, {"roles", Json::array()}};
+      if (!o.refuse_topic.empty()) {  // anonymous clients are in the group "anon", whose role denies the one topic
+        dynsec["groups"].push_back({{"groupname", "anon"}, {"roles", {{{"rolename", "deny"}}}}});
+        dynsec["roles"].push_back(
+            {{"rolename", "deny"},
+             {"acls", {{{"acltype", "subscribeLiteral"}, {"topic", o.refuse_topic}, {"priority", 0}, {"allow", false}}}}});
+        dynsec["anonymousGroup"] = "anon";
+      }
+      write(dir / "dynsec.json", dynsec.dump() + "\n");
       conf += "plugin /usr/lib/x86_64-linux-gnu/mosquitto_dynamic_security.so\nplugin_opt_config_file " +
               (dir / "dynsec.json").string() + "\n";
     }

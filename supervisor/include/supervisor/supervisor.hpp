@@ -42,14 +42,14 @@ inline std::string run_source(const std::string& machine_id) { return kRunSource
 inline bool is_run_source(const std::string& source) { return source.rfind(kRunSourcePrefix, 0) == 0; }
 
 // The topics the supervisor reads, below the prefix: the service subscribes to these, on_message
-// takes these and rejects any other. An optional one (asking for a probe by hand) the broker may
-// refuse at the cost of a warning; a refused required one stops the start.
+// takes these and rejects any other. A topic with `if_refused` is optional: a broker that refuses its
+// subscription costs a warning saying that; a refused required one (nullptr) stops the start.
 struct InboundTopic {
   const char* name;
-  bool required;
+  const char* if_refused;
 };
 inline constexpr std::array<InboundTopic, 3> kInboundTopics{
-    {{"sample", true}, {"probe/result", true}, {"probe/now", false}}};
+    {{"sample", nullptr}, {"probe/result", nullptr}, {"probe/now", "probes cannot be asked for by hand"}}};
 
 class Inbox;
 class NcLink;
