@@ -9,7 +9,8 @@ outputs whose P99 with ALC exceeds the uncompensated P99 (by more than --toleran
 
 --sweep 1|2|3 runs one of the three sets of replays of docs/adaptive.md instead (1: A-D at their own
 seeds and 1-12, H1-H5 at theirs and 1-80, S16 at its own and 1-10, 468 replays; 2: A-D at 13-24, H1-H5
-at 81-160, S16 at 11-20, 458; 3: A-D at 25-36, H1-H5 at 161-240, S16 at 21-30, 458) and prints per set
+at 81-160, S16 at 11-20, 458; 3: A-D at 25-36, H1-H5 at 161-240, S16 at 21-30, 458; 4: A-D at 37-48, H1-H5
+at 241-320, S16 at 31-40, 458) and prints per set
 of options the mean linear P99 and Pd of A-D, S16 and the held-out cases and every output worse than
 uncompensated (--jobs replays at a time):
 
@@ -74,6 +75,7 @@ def _sweep(ad, held, s16):
 SWEEPS = {"1": _sweep([None] + list(range(1, 13)), [None] + list(range(1, 81)), [None] + list(range(1, 11))),
           "2": _sweep(range(13, 25), range(81, 161), range(11, 21)),
           "3": _sweep(range(25, 37), range(161, 241), range(21, 31)),
+          "4": _sweep(range(37, 49), range(241, 321), range(31, 41)),
           "h3": [("H3", s) for s in range(1, 241)]}
 
 

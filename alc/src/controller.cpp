@@ -73,6 +73,9 @@ void init_evidence(ControllerState& s, std::size_t outputs) {
   if (s.guard_off_range.size() != n) s.guard_off_range = Eigen::VectorXd::Zero(n);
   if (s.guard_held.size() != n) s.guard_held = Eigen::VectorXd::Zero(n);
   if (s.guard_check_hold.size() != n) s.guard_check_hold = Eigen::VectorXd::Constant(n, nan);
+  if (s.guard_level_sum.size() != n) s.guard_level_sum = Eigen::VectorXd::Zero(n);
+  if (s.guard_level_weight.size() != n) s.guard_level_weight = Eigen::VectorXd::Zero(n);
+  if (s.guard_level_told.size() != n) s.guard_level_told = Eigen::VectorXd::Zero(n);
 }
 
 std::string AlcParameters::validate() const {
@@ -351,6 +354,54 @@ constexpr double kFirstCheckFraction = 0.5;
 // 1 h the bound follows any error whose period is 1.66 h or longer at full speed (docs/adaptive.md).
 constexpr double kDriftFactor = 2.0;
 constexpr double kDriftSpan_s = 1.0 * 3600.0;
+// The level: a probe's weight in the mean decays by kLevelDecay per Post-CP probe (the latest two weigh
+// three quarters), and the mean is shrunk towards 0 by kLevelPrior probes' weight of no offset, so one probe
+// sets half its error; a change of the level by kLevelEventFraction x the ACL is an event.
+constexpr double kLevelDecay = 0.5;
+constexpr double kLevelPrior = 1.0;
+constexpr double kLevelEventFraction = 0.1;
+
+double Controller::guard_level(Eigen::Index i) const {
+  if (state_.guard_level_weight.size() <= i || !(state_.guard_level_weight(i) > 0.0)) return 0.0;
+  return state_.guard_level_sum(i) / (state_.guard_level_weight(i) + kLevelPrior);
+}
+
+// A Post-CP probe within the ACL tells what the compensated model's prediction left: a lasting offset of
+// the model (a CP fit that the refits on sparse probes do not move, a step no input shows) that the gain,
+// a scale, cannot take out. A breach is not learnt (NG judges it), nor an output the range switched off.
+void Controller::weigh_level(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
+                             ControllerOutput& out) {
+  if (state_.phase != Phase::PostCalibration) return;
+  for (Eigen::Index i = 0; i < residuals.size(); ++i) {
+    const double r = residuals(i), u = errors(i);
+    if (std::isnan(r) || std::isnan(u) || !(std::abs(r) <= acl_of(static_cast<std::size_t>(i))) ||
+        state_.guard_off_range(i) != 0.0)
+      continue;
+    const double p = u - r;  // the model's prediction when the probe ran
+    state_.guard_level_sum(i) = kLevelDecay * state_.guard_level_sum(i) + (u - state_.guard_gain(i) * p);
+    state_.guard_level_weight(i) = kLevelDecay * state_.guard_level_weight(i) + 1.0;
+    tell_level(time_s, i, "the mean error the compensated model left at the recent Post-CP probes within the ACL",
+               out);
+  }
+}
+
+void Controller::reset_level(double time_s, ControllerOutput& out) {
+  state_.guard_level_sum.setZero();
+  state_.guard_level_weight.setZero();
+  for (Eigen::Index i = 0; i < state_.guard_level_told.size(); ++i)
+    tell_level(time_s, i, "the model refitted on the NG probes starts without one", out);
+}
+
+void Controller::tell_level(double time_s, Eigen::Index i, const char* why, ControllerOutput& out) {
+  const double level = guard_level(i), told = state_.guard_level_told(i);
+  const double step = kLevelEventFraction * acl_of(static_cast<std::size_t>(i));
+  if (!(std::abs(level - told) >= step) && !(level == 0.0 && told != 0.0)) return;
+  state_.guard_level_told(i) = level;
+  if (!params_.guard) return;
+  std::ostringstream text;
+  text << "compensation level " << told << " -> " << level << ": " << why;
+  out.events.push_back(guard_event(time_s, i, level, told, text.str()));
+}
 
 std::pair<double, double> Controller::guard_range(Eigen::Index i) const {
   if (!(state_.error_low(i) <= state_.error_high(i))) return {-kInf, kInf};
@@ -460,7 +511,7 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
       c(i) = state_.guard_check_hold(i);
       continue;
     }
-    c(i) *= state_.guard_gain(i);
+    c(i) = c(i) * state_.guard_gain(i) + guard_level(i);
     const DriftBound b = drift_bound(i, time_s);
     c(i) = std::clamp(c(i), b.low, b.high);
   }
@@ -486,7 +537,7 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       // The drift bound: an event when it starts or stops holding the compensation back by more than the
       // ACL (right after every probe it holds a little: compensation starts from the error measured).
       const double hold = state_.guard_check_hold(i);
-      const double g = off ? 0.0 : std::isnan(hold) ? p * state_.guard_gain(i) : hold;
+      const double g = off ? 0.0 : std::isnan(hold) ? p * state_.guard_gain(i) + guard_level(i) : hold;
       const DriftBound b = drift_bound(i, time_s);
       const double acl = acl_of(static_cast<std::size_t>(i));
       const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);
@@ -538,7 +589,7 @@ void Controller::weigh_probe(double time_s, const Eigen::VectorXd& errors, const
 }
 
 void Controller::judge_first_check(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
-                                   ControllerOutput& out) {
+                                   const Eigen::VectorXd& level, ControllerOutput& out) {
   const bool judge = std::exchange(state_.first_check_due, false) && state_.phase == Phase::PostCalibration;
   for (Eigen::Index i = 0; i < errors.size(); ++i) {
     const bool was = !std::isnan(state_.guard_check_hold(i));
@@ -549,7 +600,7 @@ void Controller::judge_first_check(double time_s, const Eigen::VectorXd& errors,
       // What the model compensated at this probe (its prediction with the gain, nothing where the range had
       // switched it off), against no compensation: the model's first judgement beyond the burst it learnt.
       const double p = u - residuals(i);
-      left = u - (state_.guard_off_range(i) != 0.0 ? 0.0 : state_.guard_gain(i) * p);
+      left = u - (state_.guard_off_range(i) != 0.0 ? 0.0 : state_.guard_gain(i) * p + level(i));
       hold = std::abs(left) > std::abs(u);
     }
     if (hold == was) continue;
@@ -870,8 +921,12 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
   const Eigen::VectorXd residuals = this->residuals(record.errors);
   // Every probe after CP is evidence for the guard, the NG probes too (a model that mispredicts breaches).
   if (state_.phase != Phase::Calibration && state_.has_model) {
+    // The level the probe ran with: the first check judges the compensation in force, not one this probe moved.
+    Eigen::VectorXd level(n);
+    for (Eigen::Index i = 0; i < n; ++i) level(i) = guard_level(i);
+    weigh_level(t, record.errors, residuals, out);
     weigh_probe(t, record.errors, residuals, out);
-    if (params_.guard) judge_first_check(t, record.errors, residuals, out);
+    if (params_.guard) judge_first_check(t, record.errors, residuals, level, out);
   }
   if (state_.has_model) weigh_schedule(t, residuals);
   state_.last_probe_s = t;
@@ -978,7 +1033,10 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       const bool update = step == probing::NgStep::UpdateAndLeave;
       // The first check after an NG update whether its fit was accepted or not: a rejected fit leaves the
       // model that breached in force, which the early probe judges all the more.
-      if (update) reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+      if (update) {
+        reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+        reset_level(t, out);
+      }
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
             "Post-CP interval", update);
       break;

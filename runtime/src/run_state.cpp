@@ -65,6 +65,10 @@ void encode_controller(ByteWriter& e, const ControllerState& c) {
   // Version 8: the guard's first check judging the model (a check due, the errors it holds, NaN: none).
   e.boolean(c.first_check_due);
   e.vector(c.guard_check_hold);
+  // Version 9: the guard's level (its decaying sums and the level last told).
+  e.vector(c.guard_level_sum);
+  e.vector(c.guard_level_weight);
+  e.vector(c.guard_level_told);
 }
 
 ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
@@ -142,6 +146,11 @@ ControllerState decode_controller(ByteReader& d, std::uint32_t version) {
   if (version >= 8) {  // before: no check due, none held (init_evidence)
     c.first_check_due = d.boolean("first_check_due");
     c.guard_check_hold = d.vector("guard_check_hold");
+  }
+  if (version >= 9) {  // before: no level (init_evidence), learnt from the next Post-CP probe on
+    c.guard_level_sum = d.vector("guard_level_sum");
+    c.guard_level_weight = d.vector("guard_level_weight");
+    c.guard_level_told = d.vector("guard_level_told");
   }
   return c;
 }

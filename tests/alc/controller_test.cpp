@@ -125,6 +125,12 @@ struct Driver {
   }
 };
 
+// The guard's level of output i as docs/adaptive.md defines it: the decaying sum over the Post-CP probes
+// within the ACL of the error the gain-scaled prediction left, over its weights plus one (0: none yet).
+double level_of(const ControllerState& s, Eigen::Index i) {
+  return s.guard_level_weight(i) > 0.0 ? s.guard_level_sum(i) / (s.guard_level_weight(i) + 1.0) : 0.0;
+}
+
 }  // namespace
 
 TEST_CASE("controller: the guard's first check takes the first probe after CP and after an NG update at half a fixed Post-CP interval") {
@@ -215,7 +221,8 @@ TEST_CASE("controller: a model that does worse than none at the guard's first ch
   const ControllerOutput now = d.controller.on_tick(d.t);
   CHECK(now.prediction(0) == u);
   CHECK(held.prediction(0) > 1.5 * u);
-  CHECK(now.prediction(1) == held.prediction(1));
+  CHECK(now.prediction(1) == held.prediction(1) + level_of(held, 1));
+  CHECK(std::abs(level_of(held, 1)) < 0.01);  // E_A0C is what the model learnt: no level to speak of
   // A state saved during the hold continues bit for bit.
   Controller restored({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, d.controller.parameters(), held);
   Driver twin(p);
@@ -1221,8 +1228,116 @@ TEST_CASE("controller: the guard leaves a model that explains the errors alone")
   CHECK(d.of_type(ControllerEvent::Type::Guard).empty());
   CHECK((d.controller.state().guard_gain.array() == 1.0).all());
   const ControllerOutput out = d.controller.on_tick(d.t);
-  CHECK(out.prediction == d.controller.state().prediction);
+  // The prediction as it is, but for the level of what the probes left, which is probe noise here.
+  const ControllerState& s = d.controller.state();
+  for (Eigen::Index i = 0; i < 2; ++i) {
+    CHECK(out.prediction(i) == s.prediction(i) + level_of(s, i));
+    CHECK(std::abs(level_of(s, i)) < 1e-3);
+  }
   CHECK_FALSE(out.prediction.isZero());
+}
+
+TEST_CASE("controller: the guard's level takes out a lasting offset the model does not, learns no breach, and starts again after an NG update") {
+  AlcParameters p = test_parameters();
+  p.refit_on_probe = true;  // with the guard (default): the first check at 2.5 h, then a probe every hour
+  Driver d(p);
+  // Per Post-CP probe the error the gain-scaled prediction left (the prediction just before the probe).
+  struct Seen {
+    double t, left, phase_post;
+  };
+  std::vector<Seen> seen;
+  const auto watch = [&d, &seen](double t) {
+    const ControllerState& s = d.controller.state();
+    seen.push_back({t, d.plant.errors()(0) - s.guard_gain(0) * s.prediction(0),
+                    s.phase == Phase::PostCalibration ? 1.0 : 0.0});
+  };
+  d.run_until(3 * kHour + 31 * kMinute, watch);  // the first check and the probe at 3.5 h: nothing to correct
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  CHECK(std::abs(level_of(d.controller.state(), 0)) < 0.01);
+  const auto levels_of = [](const std::vector<ControllerEvent>& events) {
+    std::vector<ControllerEvent> r;
+    for (const auto& e : events)
+      if (e.type == ControllerEvent::Type::Guard && e.reason.rfind("compensation level", 0) == 0) r.push_back(e);
+    return r;
+  };
+  CHECK(levels_of(d.events).empty());
+  // From here E_X0C is 3 µm off what the model learnt (within the ACL of 5 µm: no breach, each probe is
+  // learnt from), a lasting offset no input shows: the level takes it out as the probes measure it.
+  d.plant.offset_x = 3.0;
+  // The level is the rule's, recomputed from what each Post-CP probe left.
+  const auto expected = [&seen]() {
+    double sum = 0.0, weight = 0.0;
+    for (const Seen& x : seen)
+      if (x.phase_post != 0.0 && x.t > 2 * kHour) {
+        sum = 0.5 * sum + x.left;
+        weight = 0.5 * weight + 1.0;
+      }
+    return sum / (weight + 1.0);
+  };
+  const int probes = d.probes;
+  while (d.probes == probes) d.run_until(d.t + kMinute, watch);  // the first probe that measures the offset
+  CHECK(d.of_type(ControllerEvent::Type::AclBreach).empty());
+  auto levels = levels_of(d.events);
+  REQUIRE(levels.size() == 1);
+  CHECK(levels[0].output == "E_X0C");
+  CHECK(levels[0].time_s == seen.back().t);
+  CHECK(levels[0].limit == 0.0);  // the level told before
+  CHECK_THAT(seen.back().left, Catch::Matchers::WithinAbs(3.0, 0.3));
+  CHECK_THAT(levels[0].value, Catch::Matchers::WithinAbs(expected(), 1e-9));
+  CHECK(levels[0].value > 0.9);  // a third of it and more: the two probes before it, near 0, weigh 3/4 of one
+  CHECK_THAT(levels[0].reason, Catch::Matchers::Contains("Post-CP probes within the ACL"));
+  d.run_until(8 * kHour + 31 * kMinute, watch);
+  REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());
+  const ControllerState& s = d.controller.state();
+  CHECK_THAT(level_of(s, 0), Catch::Matchers::WithinAbs(expected(), 1e-9));
+  CHECK(s.guard_level_told(0) == levels_of(d.events).back().value);
+  // Compensated: the gain-scaled prediction plus the level, within the drift bound; what the compensation
+  // leaves of E_X0C is below what the prediction alone leaves, and E_A0C has no level to speak of.
+  const ControllerOutput out = d.controller.on_tick(d.t);
+  const double u = d.plant.errors()(0), model = s.guard_gain(0) * s.prediction(0);
+  CHECK(out.prediction(0) == model + level_of(s, 0));
+  CHECK(level_of(s, 0) > 0.5);
+  CHECK(std::abs(u - out.prediction(0)) < std::abs(u - model) - 0.5);
+  CHECK(std::abs(level_of(s, 1)) < 0.1);
+  // A breach is not learnt: 12 µm more from the next probe on starts NG, the sums stay; the NG update at
+  // its end refits the model on the burst and starts the level again (an event back to 0).
+  const ControllerState before = d.controller.state();
+  d.plant.offset_x = 15.0;
+  const int probes_before = d.probes;
+  while (d.probes == probes_before) d.run_until(d.t + kMinute);
+  REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).size() >= 1);
+  CHECK(d.controller.phase() == Phase::NoGood);
+  CHECK(d.controller.state().guard_level_sum(0) == before.guard_level_sum(0));
+  CHECK(d.controller.state().guard_level_weight(0) == before.guard_level_weight(0));
+  const std::size_t at_breach = d.events.size();
+  d.run_until(d.t + 2 * kHour);
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  const std::vector<ControllerEvent> after(d.events.begin() + static_cast<std::ptrdiff_t>(at_breach), d.events.end());
+  const auto reset = levels_of(after);
+  REQUIRE_FALSE(reset.empty());
+  CHECK(reset[0].output == "E_X0C");
+  CHECK(reset[0].value == 0.0);
+  CHECK_THAT(reset[0].reason, Catch::Matchers::Contains("refitted on the NG probes"));
+  // A state saved with a level continues bit for bit.
+  Driver twin(p);
+  twin.plant = d.plant;
+  twin.t = d.t;
+  twin.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, d.controller.parameters(), d.controller.state());
+  d.run_until(d.t + 3 * kHour);
+  twin.run_until(d.t);
+  CHECK(twin.controller.on_tick(twin.t).prediction == d.controller.on_tick(d.t).prediction);
+  CHECK(twin.controller.state().guard_level_sum == d.controller.state().guard_level_sum);
+  // Without the guard the sums are kept (the evidence is), but nothing is compensated by them or told.
+  AlcParameters unguarded = p;
+  unguarded.guard = false;
+  Driver off(unguarded);
+  off.run_until(3 * kHour + 31 * kMinute);
+  off.plant.offset_x = 2.0;
+  off.run_until(8 * kHour + 31 * kMinute);
+  REQUIRE(off.of_type(ControllerEvent::Type::AclBreach).empty());
+  CHECK(levels_of(off.events).empty());
+  CHECK(level_of(off.controller.state(), 0) > 0.5);
+  CHECK(off.controller.on_tick(off.t).prediction == off.controller.state().prediction);
 }
 
 TEST_CASE("controller: the guard compensates nothing while the prediction leaves the measured range") {
@@ -1268,7 +1383,8 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
         on = true;
         // Compensated again: the prediction with its gain, within the drift bound around the latest probe's
         // error (test below), i.e. between that error and the prediction.
-        const double g = d.controller.state().prediction(0) * d.controller.state().guard_gain(0);
+        const double g = d.controller.state().prediction(0) * d.controller.state().guard_gain(0) +
+                         level_of(d.controller.state(), 0);
         const double anchor = d.controller.state().probes.back().errors(0);
         CHECK(out.prediction(0) >= std::min(g, anchor));
         CHECK(out.prediction(0) <= std::max(g, anchor));
@@ -1338,7 +1454,7 @@ TEST_CASE("controller: the guard holds compensation within the drift the probes 
       const ControllerState& s = d.controller.state();
       INFO("guard " << guard << ", t = " << d.t / kHour << " h");
       REQUIRE(s.guard_off_range(0) == 0.0);  // the range's switch is not what acts here
-      const double g = s.prediction(0) * s.guard_gain(0);
+      const double g = s.prediction(0) * s.guard_gain(0) + level_of(s, 0);
       if (!guard) {
         CHECK(out.prediction(0) == s.prediction(0));
         continue;

@@ -128,6 +128,9 @@ TEST_CASE("load case A: a run stopped at many points and resumed from its histor
     CHECK(c.guard_held == end.guard_held);
     CHECK(c.first_check_due == end.first_check_due);
     CHECK(same(c.guard_check_hold, end.guard_check_hold));
+    CHECK(c.guard_level_sum == end.guard_level_sum);
+    CHECK(c.guard_level_weight == end.guard_level_weight);
+    CHECK(c.guard_level_told == end.guard_level_told);
     for (std::size_t k = 0; k < r.outputs.size(); ++k) {
       CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
       CHECK(r.outputs[k].RMSE == whole.outputs[k].RMSE);
@@ -283,6 +286,12 @@ TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refuse
   const RunState held_decoded = decode_run_state(holding.encode_state());
   CHECK(same(held_decoded.controller.guard_check_hold, held.guard_check_hold));
   CHECK_FALSE(held_decoded.controller.first_check_due);
+  // And the guard's level (version 9): H5 at 7.6 h has learnt from the first check's probe.
+  REQUIRE((held.guard_level_weight.array() > 0.0).any());
+  REQUIRE_FALSE(held.guard_level_sum.isZero());
+  CHECK(held_decoded.controller.guard_level_sum == held.guard_level_sum);
+  CHECK(held_decoded.controller.guard_level_weight == held.guard_level_weight);
+  CHECK(held_decoded.controller.guard_level_told == held.guard_level_told);
   CHECK_THROWS_WITH(decode_run_state(bytes.substr(0, bytes.size() / 2)), Catch::Matchers::Contains("checksum"));
   CHECK_THROWS_WITH(decode_run_state(bytes + "x"), Catch::Matchers::Contains("checksum"));
   std::string flipped = bytes;

@@ -189,6 +189,11 @@ struct ControllerState {
   Eigen::VectorXd guard_check_hold;    // [unit] where the model's compensation did worse than none at its first
                                        //     check, the error that probe measured, compensated until the next
                                        //     probe instead of the model's; NaN: none held
+  // The guard's level (docs/adaptive.md, "The level"): per output, decaying sums over the Post-CP probes within
+  // the ACL since the latest NG phase of the error the gain-scaled prediction left, and their weights.
+  Eigen::VectorXd guard_level_sum;     // [unit]
+  Eigen::VectorXd guard_level_weight;  // [-]
+  Eigen::VectorXd guard_level_told;    // [unit] the level the latest guard event announced (0: none)
 };
 
 // Sizes the evidence of a state to `outputs` (NaN drift and noise, zero sums, gain 1, no range) where it is not.
@@ -265,10 +270,11 @@ class Controller {
   // A probe after CP: the drift and guard evidence (errors: thermal errors, residuals: against the model).
   void weigh_probe(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals, ControllerOutput& out);
   // The guard's first check judging the model (docs/adaptive.md): at the first probe after a fit on a burst,
-  // an output whose compensation (the prediction with its gain) left a larger error than none compensates
-  // the error that probe measured until the next probe; any other probe after CP ends such a hold.
+  // an output whose compensation (the prediction with its gain and the level the probe ran with) left a
+  // larger error than none compensates the error that probe measured until the next probe; any other probe
+  // after CP ends such a hold.
   void judge_first_check(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
-                         ControllerOutput& out);
+                         const Eigen::VectorXd& level, ControllerOutput& out);
   // The prediction with the guard applied at `time_s` (what is compensated); with `out`, also the events
   // of an output whose prediction leaves or re-enters the range of the measured errors, or whose
   // compensation the drift bound starts or stops holding back.
@@ -295,6 +301,14 @@ class Controller {
     double high = std::numeric_limits<double>::infinity();
   };
   DriftBound drift_bound(Eigen::Index i, double time_s) const;
+  // The guard's level of output i: the decaying mean of the errors its gain-scaled prediction left at the
+  // recent Post-CP probes, shrunk towards 0 by one probe's weight (0 before the first such probe).
+  double guard_level(Eigen::Index i) const;
+  void weigh_level(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
+                   ControllerOutput& out);
+  void reset_level(double time_s, ControllerOutput& out);
+  // A guard event where output i's level moved kLevelEventFraction x its ACL from the one last told.
+  void tell_level(double time_s, Eigen::Index i, const char* why, ControllerOutput& out);
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
   // Enters `to` at `time_s`: the phase change, the next due probe and the interval of the new phase.
   // burst_model: a burst of probes just ended with an identification (CP end, NG end with an update;

@@ -19,9 +19,9 @@
 namespace alc::runtime {
 
 inline constexpr const char* kRunStateFormat = "alc.run-state";
-// 8: the first check judging the model; 7: the drift bound; 6: the schedule's kappa evidence; 5: the gain
-// guard; 4 (first guard) and 3 are read too.
-inline constexpr std::uint32_t kRunStateVersion = 8;
+// 9: the guard's level; 8: the first check judging the model; 7: the drift bound; 6: the schedule's kappa
+// evidence; 5: the gain guard; 4 (first guard) and 3 are read too.
+inline constexpr std::uint32_t kRunStateVersion = 9;
 
 struct RunState {
   std::int64_t next_index = 0;        // source index to continue from
