@@ -597,8 +597,9 @@ void Controller::judge_first_check(double time_s, const Eigen::VectorXd& errors,
     const double u = errors(i);
     double left = 0.0;
     if (judge && !std::isnan(u) && !std::isnan(residuals(i))) {
-      // What the model compensated at this probe (its prediction with the gain, nothing where the range had
-      // switched it off), against no compensation: the model's first judgement beyond the burst it learnt.
+      // What the model compensated at this probe (its prediction with the gain and the level the probe ran
+      // with, nothing where the range had switched it off), against no compensation: the model's first
+      // judgement beyond the burst it learnt.
       const double p = u - residuals(i);
       left = u - (state_.guard_off_range(i) != 0.0 ? 0.0 : state_.guard_gain(i) * p + level(i));
       hold = std::abs(left) > std::abs(u);
@@ -1035,6 +1036,7 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       // model that breached in force, which the early probe judges all the more.
       if (update) {
         reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+        // The level starts again also where the fit was rejected: the breach said the old one no longer holds.
         reset_level(t, out);
       }
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",

@@ -68,7 +68,8 @@ struct AlcParameters {
   double max_interval_s = 12 * 3600.0;     // [s]
   bool guard = true;                       // back compensation off where it does no good (docs/adaptive.md): per
                                            // output, scale the prediction by its least-squares gain in [0, 1]
-                                           // against the errors of recent Post-CP probes, compensate nothing
+                                           // against the errors of recent Post-CP probes and add the level
+                                           // those probes measured (the guard's level), compensate nothing
                                            // while the prediction leaves the range of the measured errors, and
                                            // keep compensation within the latest probe's error +- 2 x the
                                            // fastest drift measured x the time since (the drift bound)
