@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "../cli_support.hpp"
+#include "common/byte_codec.hpp"
 #include "runtime/replay.hpp"
 #include "runtime/run_state.hpp"
 #include "runtime_test_support.hpp"
@@ -242,6 +243,54 @@ TEST_CASE("load case A with the adaptive schedule: a run stopped and resumed fro
     CHECK(c.schedule_prediction == end.schedule_prediction);
     for (std::size_t k = 0; k < r.outputs.size(); ++k) CHECK(r.outputs[k].P99 == whole.outputs[k].P99);
   }
+}
+
+TEST_CASE("run state: a snapshot of version 8, from before the guard's level, is read and starts without a level") {
+  // A supervisor that ran for months on the previous release restarts on this one from its latest snapshot.
+  // Version 8 is version 9 without the level's three vectors at the end of the controller: built here from
+  // a version 9 payload whose level vectors are empty (three zero lengths), cut out, with the older header.
+  const auto simulated = simulate_case("A");
+  Replay session(simulated.scenario, in_memory(AlcParameters{}));
+  session.run_until(10 * 3600.0);  // CP ended at 6.5 h: the Post-CP probes have set a level
+  const RunState v9 = decode_run_state(session.encode_state());
+  REQUIRE((v9.controller.guard_level_weight.array() > 0.0).any());
+  RunState without = v9;
+  without.controller.guard_level_sum = without.controller.guard_level_weight =
+      without.controller.guard_level_told = Eigen::VectorXd();
+  const std::string full = encode_run_state(v9), empty = encode_run_state(without);
+  // The first byte where they differ is the length of the first level vector (0 against the outputs).
+  std::size_t at = 0;
+  while (at < empty.size() && full[at] == empty[at]) ++at;
+  REQUIRE(at + 24 <= empty.size() - 8);
+  REQUIRE(empty.substr(at, 24) == std::string(24, '\0'));
+  std::string body = empty.substr(0, at) + empty.substr(at + 24, empty.size() - 8 - at - 24);
+  common::ByteWriter h9, h8, sum;
+  h9.write_header(kRunStateFormat, 9);
+  h8.write_header(kRunStateFormat, 8);
+  REQUIRE(body.compare(0, h9.bytes().size(), h9.bytes()) == 0);
+  body.replace(0, h9.bytes().size(), h8.bytes());
+  sum.u64(common::checksum64(body));
+  const RunState v8 = decode_run_state(body + sum.bytes());
+  CHECK(v8.controller.guard_level_sum.size() == 0);
+  CHECK(v8.controller.guard_gain == v9.controller.guard_gain);
+  CHECK(v8.controller.guard_check_hold.size() == v9.controller.guard_check_hold.size());
+  CHECK(v8.controller.probes.size() == v9.controller.probes.size());
+  CHECK(v8.controller.samples == v9.controller.samples);
+  CHECK(v8.total_s == v9.total_s);
+  // The controller sizes what the older state lacks: no level, learnt again from the next Post-CP probe.
+  ControllerState c = v8.controller;
+  init_evidence(c, static_cast<std::size_t>(v9.controller.guard_gain.size()));
+  CHECK(c.guard_level_sum.size() == v9.controller.guard_level_sum.size());
+  CHECK(c.guard_level_sum.isZero());
+  CHECK(c.guard_level_weight.isZero());
+  CHECK(c.guard_level_told.isZero());
+  // And a version this program does not know yet is refused by name.
+  common::ByteWriter h10, sum10;
+  h10.write_header(kRunStateFormat, 10);
+  std::string future = full.substr(0, full.size() - 8);
+  future.replace(0, h10.bytes().size(), h10.bytes());
+  sum10.u64(common::checksum64(future));
+  CHECK_THROWS_WITH(decode_run_state(future + sum10.bytes()), Catch::Matchers::Contains("version 10"));
 }
 
 TEST_CASE("run state: a truncated, damaged or foreign snapshot payload is refused") {
