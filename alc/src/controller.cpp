@@ -366,6 +366,10 @@ double Controller::guard_level(Eigen::Index i) const {
   return state_.guard_level_sum(i) / (state_.guard_level_weight(i) + kLevelPrior);
 }
 
+double Controller::model_compensation(Eigen::Index i) const {
+  return state_.prediction(i) * state_.guard_gain(i) + guard_level(i);
+}
+
 // A Post-CP probe within the ACL tells what the compensated model's prediction left: a lasting offset of
 // the model (a CP fit that the refits on sparse probes do not move, a step no input shows) that the gain,
 // a scale, cannot take out. A breach is not learnt (NG judges it), nor an output the range switched off.
@@ -511,7 +515,7 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
       c(i) = state_.guard_check_hold(i);
       continue;
     }
-    c(i) = c(i) * state_.guard_gain(i) + guard_level(i);
+    c(i) = model_compensation(i);
     const DriftBound b = drift_bound(i, time_s);
     c(i) = std::clamp(c(i), b.low, b.high);
   }
@@ -537,7 +541,7 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       // The drift bound: an event when it starts or stops holding the compensation back by more than the
       // ACL (right after every probe it holds a little: compensation starts from the error measured).
       const double hold = state_.guard_check_hold(i);
-      const double g = off ? 0.0 : std::isnan(hold) ? p * state_.guard_gain(i) + guard_level(i) : hold;
+      const double g = off ? 0.0 : std::isnan(hold) ? model_compensation(i) : hold;
       const DriftBound b = drift_bound(i, time_s);
       const double acl = acl_of(static_cast<std::size_t>(i));
       const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);

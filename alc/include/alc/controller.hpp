@@ -305,6 +305,9 @@ class Controller {
   // The guard's level of output i: the decaying mean of the errors its gain-scaled prediction left at the
   // recent Post-CP probes, shrunk towards 0 by one probe's weight (0 before the first such probe).
   double guard_level(Eigen::Index i) const;
+  // What output i's model compensates with the guard's gain and level, before the range, a first check's
+  // hold and the drift bound: the prediction x the gain + the level.
+  double model_compensation(Eigen::Index i) const;
   void weigh_level(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                    ControllerOutput& out);
   void reset_level(double time_s, ControllerOutput& out);
