@@ -389,11 +389,12 @@ void Controller::weigh_level(double time_s, const Eigen::VectorXd& errors, const
   }
 }
 
-void Controller::reset_level(double time_s, ControllerOutput& out) {
+void Controller::reset_level(double time_s, bool refitted, ControllerOutput& out) {
   state_.guard_level_sum.setZero();
   state_.guard_level_weight.setZero();
-  for (Eigen::Index i = 0; i < state_.guard_level_told.size(); ++i)
-    tell_level(time_s, i, "the model refitted on the NG probes starts without one", out);
+  const char* why = refitted ? "the model refitted on the NG probes starts without one"
+                             : "the NG update's fit was rejected, and the breach says the old level no longer holds";
+  for (Eigen::Index i = 0; i < state_.guard_level_told.size(); ++i) tell_level(time_s, i, why, out);
 }
 
 void Controller::tell_level(double time_s, Eigen::Index i, const char* why, ControllerOutput& out) {
@@ -1039,9 +1040,10 @@ ControllerOutput Controller::on_probe(const ProbeMeasurement& probe) {
       // The first check after an NG update whether its fit was accepted or not: a rejected fit leaves the
       // model that breached in force, which the early probe judges all the more.
       if (update) {
-        reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
+        const bool refitted =
+            reidentify(t, out, "NG phase complete after " + std::to_string(state_.ng_probes) + " probes");
         // The level starts again also where the fit was rejected: the breach said the old one no longer holds.
-        reset_level(t, out);
+        reset_level(t, refitted, out);
       }
       enter(Phase::PostCalibration, t, out, update ? "NG measurements complete" : "NG probe within the ACL",
             "Post-CP interval", update);

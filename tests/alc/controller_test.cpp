@@ -1302,6 +1302,13 @@ TEST_CASE("controller: the guard's level takes out a lasting offset the model do
   // A breach is not learnt: 12 µm more from the next probe on starts NG, the sums stay; the NG update at
   // its end refits the model on the burst and starts the level again (an event back to 0).
   const ControllerState before = d.controller.state();
+  // The same run from here with every fit rejected (more measurements asked for than any window holds).
+  AlcParameters rejecting_p = d.controller.parameters();
+  rejecting_p.identification.min_measurements = 100000;
+  Driver rejecting(rejecting_p);
+  rejecting.plant = d.plant;
+  rejecting.t = d.t;
+  rejecting.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, rejecting_p, before);
   d.plant.offset_x = 15.0;
   const int probes_before = d.probes;
   while (d.probes == probes_before) d.run_until(d.t + kMinute);
@@ -1318,6 +1325,24 @@ TEST_CASE("controller: the guard's level takes out a lasting offset the model do
   CHECK(reset[0].output == "E_X0C");
   CHECK(reset[0].value == 0.0);
   CHECK_THAT(reset[0].reason, Catch::Matchers::Contains("refitted on the NG probes"));
+  // Where the NG update's fit is rejected the breached model stays, and the level starts again all the
+  // same: the event says the fit was rejected, not that the model was refitted.
+  rejecting.plant.offset_x = 15.0;
+  // Until the first NG phase has ended (the old model, still off, breaches again at the next probe).
+  while (rejecting.controller.phase() != Phase::NoGood && rejecting.t < d.t) rejecting.run_until(rejecting.t + kMinute);
+  while (rejecting.controller.phase() == Phase::NoGood && rejecting.t < d.t) rejecting.run_until(rejecting.t + kMinute);
+  REQUIRE(rejecting.controller.phase() == Phase::PostCalibration);
+  REQUIRE_FALSE(rejecting.of_type(ControllerEvent::Type::AclBreach).empty());
+  CHECK(rejecting.of_type(ControllerEvent::Type::ModelUpdate).empty());
+  CHECK_FALSE(rejecting.of_type(ControllerEvent::Type::ModelRejected).empty());
+  CHECK(rejecting.controller.state().predictor.model().outputs[0].parameters ==
+        before.predictor.model().outputs[0].parameters);
+  const auto rejected_reset = levels_of(rejecting.events);
+  REQUIRE_FALSE(rejected_reset.empty());
+  CHECK(rejected_reset[0].output == "E_X0C");
+  CHECK(rejected_reset[0].value == 0.0);
+  CHECK_THAT(rejected_reset[0].reason, Catch::Matchers::Contains("fit was rejected"));
+  CHECK(level_of(rejecting.controller.state(), 0) == 0.0);
   // A state saved with a level continues bit for bit.
   Driver twin(p);
   twin.plant = d.plant;

@@ -310,7 +310,7 @@ class Controller {
   double model_compensation(Eigen::Index i) const;
   void weigh_level(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                    ControllerOutput& out);
-  void reset_level(double time_s, ControllerOutput& out);
+  void reset_level(double time_s, bool refitted, ControllerOutput& out);
   // A guard event where output i's level moved kLevelEventFraction x its ACL from the one last told.
   void tell_level(double time_s, Eigen::Index i, const char* why, ControllerOutput& out);
   void change_phase(Phase to, double time_s, ControllerOutput& out, const std::string& reason);
