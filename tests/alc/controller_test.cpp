@@ -101,6 +101,9 @@ struct Driver {
   double t = 0.0;
   explicit Driver(AlcParameters p)
       : controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, std::move(p)) {}
+  // Continues `from`'s plant and time with a controller restored from `state` (its events are not copied).
+  Driver(AlcParameters p, const ControllerState& state, const Driver& from)
+      : plant(from.plant), controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, std::move(p), state), t(from.t) {}
   void run_until(double end_s, const std::function<void(double)>& before_probe = {}) {
     for (; t < end_s; t += kMinute) {
       plant.advance(t);
@@ -1122,10 +1125,7 @@ TEST_CASE("controller: the adaptive schedule learns kappa from a model whose gai
   for (const double stop : {2 * kHour + 20 * kMinute, 11 * kHour + 7 * kMinute, 30 * kHour + 31 * kMinute}) {
     Driver a(p);
     run(a, stop);
-    Driver b(p);
-    b.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, p, a.controller.state());
-    b.plant = a.plant;
-    b.t = a.t;
+    Driver b(p, a.controller.state(), a);
     b.events = a.events;
     run(a, 60 * kHour);
     run(b, 60 * kHour);
@@ -1305,10 +1305,7 @@ TEST_CASE("controller: the guard's level takes out a lasting offset the model do
   // The same run from here with every fit rejected (more measurements asked for than any window holds).
   AlcParameters rejecting_p = d.controller.parameters();
   rejecting_p.identification.min_measurements = 100000;
-  Driver rejecting(rejecting_p);
-  rejecting.plant = d.plant;
-  rejecting.t = d.t;
-  rejecting.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, rejecting_p, before);
+  Driver rejecting(rejecting_p, before, d);
   d.plant.offset_x = 15.0;
   const int probes_before = d.probes;
   while (d.probes == probes_before) d.run_until(d.t + kMinute);
@@ -1344,10 +1341,7 @@ TEST_CASE("controller: the guard's level takes out a lasting offset the model do
   CHECK_THAT(rejected_reset[0].reason, Catch::Matchers::Contains("fit was rejected"));
   CHECK(level_of(rejecting.controller.state(), 0) == 0.0);
   // A state saved with a level continues bit for bit.
-  Driver twin(p);
-  twin.plant = d.plant;
-  twin.t = d.t;
-  twin.controller = Controller({"T_ENV", "n_C"}, {"E_X0C", "E_A0C"}, d.controller.parameters(), d.controller.state());
+  Driver twin(d.controller.parameters(), d.controller.state(), d);
   d.run_until(d.t + 3 * kHour);
   twin.run_until(d.t);
   CHECK(twin.controller.on_tick(twin.t).prediction == d.controller.on_tick(d.t).prediction);
