@@ -17,7 +17,7 @@ ALC_PACKAGES=(g++ cmake ninja-build pkg-config libeigen3-dev libceres-dev libsql
 ALC_FUZZ_PACKAGES=(clang libclang-rt-14-dev)
 
 # Whether this script process has run `apt-get update` already: once is enough for all the
-# ensure_packages calls of a script (test.sh makes six).
+# ensure_packages calls of a script (test.sh makes eight).
 ALC_APT_UPDATED=0
 
 # ensure_packages PKG...: apt-get install the ones that are not installed yet.

@@ -2,6 +2,7 @@
 """Compares the Pareto fronts (mean linear P99 against Pd) of two study CSV files case by case.
 
 usage: compare_fronts.py A.csv B.csv [--label-a paper] [--label-b adaptive] [--svg PREFIX] [--fronts]
+                         [--worse-by PARAM[,PARAM...]]
 
 A front is the sets no other set of the same file beats in both (lower or equal P99, higher or equal
 Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts/fronts.sh) it prints
@@ -18,6 +19,8 @@ own seeds, at each other seed and at all seeds together) one point per parameter
 the group's recordings of its linear P99 and of its Pd, so a front of sets that a user would set once
 for every machine of the group rather than pick per recording in hindsight; the same Pd ranges and
 dominated points as above.
+With --worse-by PARAMS, the runs (set x recording) of each file with an output whose P99 is above its
+P99 without compensation (the guard's "never worse"), per value of those parameters.
 With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
 Standard library only.
 """
@@ -38,13 +41,14 @@ def case_key(name):
 REQUIRED = ("case", "status", "Pd", "P99_linear")  # the columns of `alc study --csv` read here
 
 
-def rows(path):
-    """Per recording, (P99, Pd, set) of the rows that ran. A set is named by its parameter values (the
-    columns between `case` and `status`), not by its number, so that the rows of several grids (whose
-    numbers start at 1 each) can share one file. A file that is not a study CSV, or a row whose number
-    of fields is not the header's (a file cut mid-row), ends the script with a message naming the file
-    and line."""
-    by_case = defaultdict(list)
+def read_study(path):
+    """The rows of a study CSV that ran (status ok, P99 and Pd numbers): per row a dict with the
+    recording's key (case_key), the set's name (its parameter values: the columns between `case` and
+    `status`, not its number, so that the rows of several grids, whose numbers start at 1 each, can
+    share one file), its parameters, the linear P99, the Pd and its outputs as (name, P99, P99
+    uncompensated). A file that is not a study CSV, or a row whose number of fields is not the
+    header's (a file cut mid-row), ends the script with a message naming the file and line."""
+    out = []
     try:
         with open(path, newline="") as f:
             reader = csv.reader(f)
@@ -76,9 +80,16 @@ def rows(path):
                     continue
                 try:
                     p99, pd = float(r["P99_linear"]), float(r["Pd"])
+                    # An output's name from the header where the row has the header's outputs, else its
+                    # position (a row of a recording with other outputs, joined under another header).
+                    outputs = [(header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
+                                else f"output {(b - fixed) // 6 + 1}",
+                                float(row[b + 2]) if row[b + 2] else math.nan,
+                                float(row[b + 4]) if row[b + 4] else math.nan)
+                               for b in range(fixed, len(row), 6)]
                 except ValueError:
-                    raise SystemExit(f"{path}:{reader.line_num}: P99_linear {r['P99_linear']!r} or Pd {r['Pd']!r} "
-                                     f"is not a number")
+                    raise SystemExit(f"{path}:{reader.line_num}: P99_linear {r['P99_linear']!r}, Pd {r['Pd']!r} or an "
+                                     f"output's P99 is not a number")
                 if not (math.isfinite(p99) and math.isfinite(pd)):
                     continue  # no point to place (as an empty cell)
                 k = case_key(r["case"])
@@ -87,12 +98,58 @@ def rows(path):
                     raise SystemExit(f"{path}:{reader.line_num}: the set {name} ran twice on {r['case']} "
                                      f"(two grids with the same values?)")
                 seen.add((k, name))
-                by_case[k].append((p99, pd, name))
+                out.append({"key": k, "set": name, "params": {p: r[p] for p in params}, "P99": p99, "Pd": pd,
+                            "outputs": outputs})
     except OSError as e:
         raise SystemExit(f"{path}: {e.strerror or e}")
     except (csv.Error, UnicodeDecodeError) as e:
         raise SystemExit(f"{path}: not a readable CSV file ({e})")
+    return out
+
+
+def rows(records):
+    """Per recording, (P99, Pd, set) of the rows of read_study."""
+    by_case = defaultdict(list)
+    for r in records:
+        by_case[r["key"]].append((r["P99"], r["Pd"], r["set"]))
     return by_case
+
+
+def worse(record):
+    """The outputs of a row whose P99 with ALC is above their P99 without compensation."""
+    return [name for name, p99, uncompensated in record["outputs"] if p99 > uncompensated]
+
+
+def value_order(text):
+    """Numbers first, by value (inf last of them), then the other texts."""
+    try:
+        return (0, float(text), text)
+    except ValueError:
+        return (1, 0.0, text)
+
+
+def worse_table(files, by):
+    """Markdown lines: per file and per value of the parameters `by` (a parameter a file lacks: "—"), the
+    rows (set x recording), those with an output worse than uncompensated, and the recordings they are on."""
+    lines = [f"| schedule | {' | '.join(by) if by else 'sets'} | runs | runs with an output worse than "
+             f"uncompensated | outputs worse / outputs | recordings (runs) |",
+             "| --- | " + " | ".join("---" for _ in by or [0]) + " | --- | --- | --- | --- |"]
+    for label, records in files:
+        groups = defaultdict(list)
+        for r in records:
+            groups[tuple(r["params"].get(b, "—") or "(moot)" for b in by)].append(r)
+        for value in sorted(groups, key=lambda v: [value_order(x) for x in v]):
+            rs = groups[value]
+            bad = [r for r in rs if worse(r)]
+            where = defaultdict(int)
+            for r in bad:
+                where[r["key"][0] if r["key"][1] == "own" else f"{r['key'][0]} {r['key'][1]}"] += 1
+            n_out = sum(len(r["outputs"]) for r in rs)
+            n_bad = sum(len(worse(r)) for r in rs)
+            text = ", ".join(f"{k} ({n})" for k, n in sorted(where.items())) or "—"
+            lines.append(f"| {label} | {' | '.join(value) if by else 'all'} | {len(rs)} | {len(bad)} | {n_bad} / {n_out} "
+                         f"| {text} |")
+    return lines
 
 
 def pooled(by_case, keys):
@@ -192,8 +249,12 @@ def main():
     ap.add_argument("--label-b", default="B")
     ap.add_argument("--svg", help="also draw both fronts per case, one SVG per seed: PREFIX-own.svg, PREFIX-seed-S.svg")
     ap.add_argument("--fronts", action="store_true", help="also list the fronts' points")
+    ap.add_argument("--worse-by", metavar="PARAM[,PARAM...]",
+                    help="also count the runs with an output worse than uncompensated (its P99 above its P99 "
+                         "without compensation), per value of these parameters (empty: all runs of a file)")
     args = ap.parse_args()
-    ra, rb = rows(args.a), rows(args.b)
+    sa, sb = read_study(args.a), read_study(args.b)
+    ra, rb = rows(sa), rows(sb)
     la, lb = args.label_a, args.label_b
     order = lambda k: (k[1] != "own", k[1], ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"].index(k[0])
                        if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
@@ -238,6 +299,10 @@ def main():
     for label, n in left_out.items():
         if n:
             print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")
+    if args.worse_by is not None:
+        by = [b for b in args.worse_by.split(",") if b]
+        print(f"\noutputs worse than uncompensated (linear or angular P99 with ALC above that without)\n")
+        print("\n".join(worse_table([(la, sa), (lb, sb)], by)))
     if args.fronts:
         print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")
         show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr)

@@ -16,6 +16,8 @@ ensure_packages strace
 ensure_packages slurmctld slurmd slurm-client munge
 # Chromium for the report's browser tests (tests/report/browser_test.cpp: headless, on a local file).
 ensure_packages chromium
+# Python 3 for the test of scripts/compare_fronts.py (tests/scripts/compare_fronts_test.py, standard library only).
+ensure_packages python3
 ensure_packages "${ALC_FUZZ_PACKAGES[@]}"
 status=0
 build "$ALC_ROOT/build/test-release" -DCMAKE_BUILD_TYPE=Release

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Tests of scripts/compare_fronts.py, the tool behind the fronts and the "never worse" counts of
+docs/adaptive.md, on small study CSVs written here. Every expected value is worked out by hand in the
+comment beside it, not taken from the script. Run: python3 tests/scripts/compare_fronts_test.py
+(CTest: "scripts: compare_fronts")."""
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SCRIPT = os.path.join(HERE, "..", "..", "scripts", "compare_fronts.py")
+sys.path.insert(0, os.path.dirname(SCRIPT))
+import compare_fronts as cf  # noqa: E402
+
+# The columns compare_fronts.py reads, in the order `alc study --csv` writes them, with two outputs.
+HEADER = ("set,case,interval,move-fraction,status,error,Pd,P99_linear,uncompensated_P99_angular,"
+          "E_X_PV,E_X_RMSE,E_X_P99,E_X_SMAPE,E_X_P99_uncompensated,E_X_measurements,"
+          "E_A_PV,E_A_RMSE,E_A_P99,E_A_SMAPE,E_A_P99_uncompensated,E_A_measurements")
+
+
+def row(s, case, interval, move, pd, p99, x=(1.0, 2.0), a=(3.0, 4.0), status="ok"):
+    """A study row: set s on recording `case`, outputs E_X and E_A as (P99 with ALC, P99 uncompensated)."""
+    return (f"{s},{case},{interval},{move},{status},,{pd},{p99},9,"
+            f"0,0,{x[0]},0,{x[1]},10,0,0,{a[0]},0,{a[1]},10")
+
+
+class Files(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def write(self, name, lines):
+        path = os.path.join(self.dir.name, name)
+        with open(path, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        return path
+
+
+class FrontTest(unittest.TestCase):
+    def test_front_keeps_the_points_no_other_beats_in_both(self):
+        # (P99, Pd): (2, 95) beats (3, 94) in both; (1, 90) and (2, 95) and (4, 99) trade off.
+        pts = [(3.0, 94.0, "s1"), (2.0, 95.0, "s2"), (1.0, 90.0, "s3"), (4.0, 99.0, "s4"), (2.5, 95.0, "s5")]
+        self.assertEqual([s for _, _, s in cf.front(pts)], ["s3", "s2", "s4"])
+
+    def test_crossings_name_who_is_lower_along_pd(self):
+        # A: 2 µm up to Pd 95; B: 1 µm up to Pd 94 and 3 µm up to 96. From 94.00 to 94.99... at Pd 94.00 B
+        # has 1 < 2; above 94 B's best is 3 > 2 up to 95; above 95 only B reaches (A has no point): B.
+        fa = cf.front([(2.0, 95.0, "a")])
+        fb = cf.front([(1.0, 94.0, "b1"), (3.0, 96.0, "b2")])
+        spans = [(round(lo, 2), round(hi, 2), w) for lo, hi, w in cf.crossings(fa, fb)]
+        self.assertEqual(spans, [(94.0, 94.0, "b"), (94.01, 95.0, "a"), (95.01, 96.0, "b")])
+
+    def test_pooled_means_the_sets_that_ran_on_every_recording(self):
+        by_case = {("A", "own"): [(1.0, 90.0, "s1"), (2.0, 96.0, "s2")], ("B", "own"): [(3.0, 94.0, "s1")]}
+        points, left_out = cf.pooled(by_case, [("A", "own"), ("B", "own")])
+        self.assertEqual(points, [(2.0, 92.0, "s1")])  # (1 + 3) / 2, (90 + 94) / 2; s2 is not on B
+        self.assertEqual(left_out, 1)
+
+
+class ReadTest(Files):
+    def test_rows_and_outputs_are_read_with_their_names(self):
+        path = self.write("p.csv", [HEADER, row(1, "A", 2, 0.5, 95.5, 1.25, x=(2.5, 2.0)),
+                                    row(2, "A", 2, 0.5, 96, 9, status="error")])
+        records = cf.read_study(path)
+        self.assertEqual(len(records), 1)  # the error row is no point
+        r = records[0]
+        self.assertEqual(r["key"], ("A", "own"))
+        self.assertEqual(r["set"], "interval=2 move-fraction=0.5")
+        self.assertEqual((r["P99"], r["Pd"]), (1.25, 95.5))
+        self.assertEqual(r["outputs"], [("E_X", 2.5, 2.0), ("E_A", 3.0, 4.0)])
+        self.assertEqual(cf.worse(r), ["E_X"])
+
+    def test_a_row_of_another_recording_is_named_by_position(self):
+        # A recording with one output joined under a header of two (fronts.sh joins under the first).
+        one = "1,S16 seed 2.csv,2,0.5,ok,,95,2,9,0,0,7,0,6,10"
+        r = cf.read_study(self.write("p.csv", [HEADER, one]))[0]
+        self.assertEqual(r["key"], ("S16", "seed 2"))
+        self.assertEqual(r["outputs"], [("output 1", 7.0, 6.0)])
+
+    def test_a_row_cut_short_names_the_file_and_line(self):
+        path = self.write("cut.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1), "2,A,3,0.5,ok,,95,1,9,0,0"])
+        with self.assertRaises(SystemExit) as e:
+            cf.read_study(path)
+        self.assertIn("cut.csv:3: 11 fields, where a row holds 9 and 6 per output", str(e.exception))
+
+    def test_an_output_p99_that_is_no_number_names_the_file_and_line(self):
+        bad = row(1, "A", 2, 0.5, 95, 1).replace(",0,0,1.0,0,2.0,", ",0,0,x1,0,2.0,")
+        with self.assertRaises(SystemExit) as e:
+            cf.read_study(self.write("bad.csv", [HEADER, bad]))
+        self.assertIn("bad.csv:2:", str(e.exception))
+        self.assertIn("not a number", str(e.exception))
+
+    def test_a_file_without_the_columns_is_refused(self):
+        with self.assertRaises(SystemExit) as e:
+            cf.read_study(self.write("x.csv", ["set,case,status,Pd", "1,A,ok,95"]))
+        self.assertIn("x.csv:1: not a study CSV", str(e.exception))
+        self.assertIn("P99_linear", str(e.exception))
+
+
+class WorseTest(Files):
+    def test_worse_counts_per_parameter_value(self):
+        paper = cf.read_study(self.write("p.csv", [
+            HEADER,
+            row(1, "A", 2, 0.5, 95, 1, x=(2.0, 2.0)),   # equal is not worse
+            row(2, "A", 2, "inf", 95, 1, x=(2.1, 2.0), a=(5.0, 4.0)),  # two outputs worse
+            row(3, "B", 2, "inf", 95, 1),                 # none
+            row(4, "B", "inf", "", 99, 5, a=(4.5, 4.0)),  # move fraction moot: one worse
+        ]))
+        lines = cf.worse_table([("paper", paper)], ["move-fraction"])
+        self.assertEqual(lines[2:], [
+            "| paper | 0.5 | 1 | 0 | 0 / 2 | — |",
+            "| paper | inf | 2 | 1 | 2 / 4 | A (1) |",
+            "| paper | (moot) | 1 | 1 | 1 / 2 | B (1) |",
+        ])
+        # Without a parameter: one line per file.
+        self.assertEqual(cf.worse_table([("paper", paper)], [])[2:], ["| paper | all | 4 | 2 | 3 / 8 | A (1), B (1) |"])
+
+    def test_the_command_prints_the_table_after_the_fronts(self):
+        a = self.write("a.csv", [HEADER, row(1, "A", 2, 0.5, 95, 2.0), row(2, "A", 2, "inf", 96, 3.0, x=(3, 2))])
+        b = self.write("b.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1.5)])
+        out = subprocess.run([sys.executable, SCRIPT, a, b, "--label-a", "paper", "--label-b", "adaptive",
+                              "--worse-by", "move-fraction"], capture_output=True, text=True, check=True).stdout
+        self.assertIn("| A | 1 of 2 | 0 of 1 |", out)  # adaptive's (1.5, 95) dominates paper's (2, 95) only
+        tail = out[out.index("outputs worse than uncompensated"):].splitlines()
+        self.assertIn("| paper | inf | 1 | 1 | 1 / 2 | A (1) |", tail)
+        self.assertIn("| adaptive | 0.5 | 1 | 0 | 0 / 2 | — |", tail)
+        # Without --worse-by there is no such table.
+        plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
+        self.assertNotIn("worse than uncompensated", plain)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
