@@ -19,8 +19,9 @@ own seeds, at each other seed and at all seeds together) one point per parameter
 the group's recordings of its linear P99 and of its Pd, so a front of sets that a user would set once
 for every machine of the group rather than pick per recording in hindsight; the same Pd ranges and
 dominated points as above.
-With --worse-by PARAMS, the runs (set x recording) of each file with an output whose P99 is above its
-P99 without compensation (the guard's "never worse"), per value of those parameters.
+With --worse-by PARAMS, the runs (set x recording) of each file whose mean linear or angular P99 is above
+that without compensation, and those with an output whose P99 is (the guard's "never worse", per case
+and per output), per value of those parameters.
 With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
 Standard library only.
 """
@@ -92,6 +93,10 @@ def read_study(path):
                                      f"output's P99 is not a number")
                 if not (math.isfinite(p99) and math.isfinite(pd)):
                     continue  # no point to place (as an empty cell)
+                # The case's mean linear and angular P99 with and without compensation (NaN: none, e.g. no
+                # angular output, or a file without the columns).
+                means = [number(r.get(c, "")) for c in ("P99_linear", "uncompensated_P99_linear", "P99_angular",
+                                                        "uncompensated_P99_angular")]
                 k = case_key(r["case"])
                 name = " ".join(f"{p}={r[p]}" for p in params)
                 if (k, name) in seen:
@@ -99,7 +104,7 @@ def read_study(path):
                                      f"(two grids with the same values?)")
                 seen.add((k, name))
                 out.append({"key": k, "set": name, "params": {p: r[p] for p in params}, "P99": p99, "Pd": pd,
-                            "outputs": outputs})
+                            "outputs": outputs, "means": means})
     except OSError as e:
         raise SystemExit(f"{path}: {e.strerror or e}")
     except (csv.Error, UnicodeDecodeError) as e:
@@ -113,6 +118,20 @@ def rows(records):
     for r in records:
         by_case[r["key"]].append((r["P99"], r["Pd"], r["set"]))
     return by_case
+
+
+def number(text):
+    """A CSV cell as a number; NaN for an empty or unreadable one."""
+    try:
+        return float(text) if text else math.nan
+    except ValueError:
+        return math.nan
+
+
+def case_worse(record):
+    """Whether the case's mean linear or mean angular P99 with ALC is above that without compensation."""
+    lin, lin_u, ang, ang_u = record["means"]
+    return lin > lin_u or ang > ang_u
 
 
 def worse(record):
@@ -130,10 +149,12 @@ def value_order(text):
 
 def worse_table(files, by):
     """Markdown lines: per file and per value of the parameters `by` (a parameter a file lacks: "—"), the
-    rows (set x recording), those with an output worse than uncompensated, and the recordings they are on."""
-    lines = [f"| schedule | {' | '.join(by) if by else 'sets'} | runs | runs with an output worse than "
-             f"uncompensated | outputs worse / outputs | recordings (runs) |",
-             "| --- | " + " | ".join("---" for _ in by or [0]) + " | --- | --- | --- | --- |"]
+    rows (set x recording), those whose case is worse than uncompensated (its mean linear or angular P99),
+    those with an output worse than uncompensated, and the recordings these are on."""
+    lines = [f"| schedule | {' | '.join(by) if by else 'sets'} | runs | runs whose mean linear or angular P99 is "
+             f"worse than uncompensated | runs with an output worse than uncompensated | outputs worse / outputs | "
+             f"recordings (runs with an output worse) |",
+             "| --- | " + " | ".join("---" for _ in by or [0]) + " | --- | --- | --- | --- | --- |"]
     for label, records in files:
         groups = defaultdict(list)
         for r in records:
@@ -147,8 +168,9 @@ def worse_table(files, by):
             n_out = sum(len(r["outputs"]) for r in rs)
             n_bad = sum(len(worse(r)) for r in rs)
             text = ", ".join(f"{k} ({n})" for k, n in sorted(where.items())) or "—"
-            lines.append(f"| {label} | {' | '.join(value) if by else 'all'} | {len(rs)} | {len(bad)} | {n_bad} / {n_out} "
-                         f"| {text} |")
+            n_case = sum(case_worse(r) for r in rs)
+            lines.append(f"| {label} | {' | '.join(value) if by else 'all'} | {len(rs)} | {n_case} | {len(bad)} | "
+                         f"{n_bad} / {n_out} | {text} |")
     return lines
 
 

@@ -15,14 +15,16 @@ sys.path.insert(0, os.path.dirname(SCRIPT))
 import compare_fronts as cf  # noqa: E402
 
 # The columns compare_fronts.py reads, in the order `alc study --csv` writes them, with two outputs.
-HEADER = ("set,case,interval,move-fraction,status,error,Pd,P99_linear,uncompensated_P99_angular,"
+HEADER = ("set,case,interval,move-fraction,status,error,Pd,P99_linear,P99_angular,uncompensated_P99_linear,"
+          "uncompensated_P99_angular,"
           "E_X_PV,E_X_RMSE,E_X_P99,E_X_SMAPE,E_X_P99_uncompensated,E_X_measurements,"
           "E_A_PV,E_A_RMSE,E_A_P99,E_A_SMAPE,E_A_P99_uncompensated,E_A_measurements")
 
 
-def row(s, case, interval, move, pd, p99, x=(1.0, 2.0), a=(3.0, 4.0), status="ok"):
-    """A study row: set s on recording `case`, outputs E_X and E_A as (P99 with ALC, P99 uncompensated)."""
-    return (f"{s},{case},{interval},{move},{status},,{pd},{p99},9,"
+def row(s, case, interval, move, pd, p99, x=(1.0, 2.0), a=(3.0, 4.0), status="ok", lin_u=9, ang=(3.0, 4.0)):
+    """A study row: set s on recording `case`, its mean linear P99 p99 (lin_u without compensation), its
+    mean angular P99 with and without, outputs E_X and E_A as (P99 with ALC, P99 uncompensated)."""
+    return (f"{s},{case},{interval},{move},{status},,{pd},{p99},{ang[0]},{lin_u},{ang[1]},"
             f"0,0,{x[0]},0,{x[1]},10,0,0,{a[0]},0,{a[1]},10")
 
 
@@ -76,16 +78,16 @@ class ReadTest(Files):
 
     def test_a_row_of_another_recording_is_named_by_position(self):
         # A recording with one output joined under a header of two (fronts.sh joins under the first).
-        one = "1,S16 seed 2.csv,2,0.5,ok,,95,2,9,0,0,7,0,6,10"
+        one = "1,S16 seed 2.csv,2,0.5,ok,,95,2,,9,,0,0,7,0,6,10"
         r = cf.read_study(self.write("p.csv", [HEADER, one]))[0]
         self.assertEqual(r["key"], ("S16", "seed 2"))
         self.assertEqual(r["outputs"], [("output 1", 7.0, 6.0)])
 
     def test_a_row_cut_short_names_the_file_and_line(self):
-        path = self.write("cut.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1), "2,A,3,0.5,ok,,95,1,9,0,0"])
+        path = self.write("cut.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1), "2,A,3,0.5,ok,,95,1,3,9,4,0,0"])
         with self.assertRaises(SystemExit) as e:
             cf.read_study(path)
-        self.assertIn("cut.csv:3: 11 fields, where a row holds 9 and 6 per output", str(e.exception))
+        self.assertIn("cut.csv:3: 13 fields, where a row holds 11 and 6 per output", str(e.exception))
 
     def test_an_output_p99_that_is_no_number_names_the_file_and_line(self):
         bad = row(1, "A", 2, 0.5, 95, 1).replace(",0,0,1.0,0,2.0,", ",0,0,x1,0,2.0,")
@@ -106,18 +108,19 @@ class WorseTest(Files):
         paper = cf.read_study(self.write("p.csv", [
             HEADER,
             row(1, "A", 2, 0.5, 95, 1, x=(2.0, 2.0)),   # equal is not worse
-            row(2, "A", 2, "inf", 95, 1, x=(2.1, 2.0), a=(5.0, 4.0)),  # two outputs worse
-            row(3, "B", 2, "inf", 95, 1),                 # none
-            row(4, "B", "inf", "", 99, 5, a=(4.5, 4.0)),  # move fraction moot: one worse
+            row(2, "A", 2, "inf", 95, 1, x=(2.1, 2.0), a=(5.0, 4.0)),  # two outputs worse, the case not
+            row(3, "B", 2, "inf", 95, 9.5),               # no output, but the case's linear P99 9.5 > 9
+            row(4, "B", "inf", "", 99, 5, a=(4.5, 4.0), ang=(4.5, 4.0)),  # move fraction moot: one worse, angular too
         ]))
         lines = cf.worse_table([("paper", paper)], ["move-fraction"])
         self.assertEqual(lines[2:], [
-            "| paper | 0.5 | 1 | 0 | 0 / 2 | — |",
-            "| paper | inf | 2 | 1 | 2 / 4 | A (1) |",
-            "| paper | (moot) | 1 | 1 | 1 / 2 | B (1) |",
+            "| paper | 0.5 | 1 | 0 | 0 | 0 / 2 | — |",
+            "| paper | inf | 2 | 1 | 1 | 2 / 4 | A (1) |",
+            "| paper | (moot) | 1 | 1 | 1 | 1 / 2 | B (1) |",
         ])
         # Without a parameter: one line per file.
-        self.assertEqual(cf.worse_table([("paper", paper)], [])[2:], ["| paper | all | 4 | 2 | 3 / 8 | A (1), B (1) |"])
+        self.assertEqual(cf.worse_table([("paper", paper)], [])[2:],
+                         ["| paper | all | 4 | 2 | 2 | 3 / 8 | A (1), B (1) |"])
 
     def test_the_command_prints_the_table_after_the_fronts(self):
         a = self.write("a.csv", [HEADER, row(1, "A", 2, 0.5, 95, 2.0), row(2, "A", 2, "inf", 96, 3.0, x=(3, 2))])
@@ -126,8 +129,8 @@ class WorseTest(Files):
                               "--worse-by", "move-fraction"], capture_output=True, text=True, check=True).stdout
         self.assertIn("| A | 1 of 2 | 0 of 1 |", out)  # adaptive's (1.5, 95) dominates paper's (2, 95) only
         tail = out[out.index("outputs worse than uncompensated"):].splitlines()
-        self.assertIn("| paper | inf | 1 | 1 | 1 / 2 | A (1) |", tail)
-        self.assertIn("| adaptive | 0.5 | 1 | 0 | 0 / 2 | — |", tail)
+        self.assertIn("| paper | inf | 1 | 0 | 1 | 1 / 2 | A (1) |", tail)
+        self.assertIn("| adaptive | 0.5 | 1 | 0 | 0 | 0 / 2 | — |", tail)
         # Without --worse-by there is no such table.
         plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
         self.assertNotIn("worse than uncompensated", plain)
