@@ -54,7 +54,8 @@ const std::vector<ParameterOption>& parameter_options() {
        Stage::CpEnd, "guard"),
       row("move-fraction", "-", Domain::PositiveOrInf,
        "Guard: probe as soon as an output's compensation has moved this x its ACL since the last probe (inf: "
-       "no move check)", Stage::CpEnd, "move_fraction"),
+       "no move check; without it outputs end worse than uncompensated far more often, docs/adaptive.md)", Stage::CpEnd,
+       "move_fraction"),
       row("plausible-lin", "µm", Domain::PositiveOrInf,
        "A probe's linear error beyond ± this is a sensor fault: set aside for that output (inf: no limit)", Stage::Start, "plausible_linear_um"),
       row("plausible-ang", "µm/m", Domain::PositiveOrInf,
