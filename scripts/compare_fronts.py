@@ -46,9 +46,11 @@ def read_study(path):
     """The rows of a study CSV that ran (status ok, P99 and Pd numbers): per row a dict with the
     recording's key (case_key), the set's name (its parameter values: the columns between `case` and
     `status`, not its number, so that the rows of several grids, whose numbers start at 1 each, can
-    share one file), its parameters, the linear P99, the Pd and its outputs as (name, P99, P99
-    uncompensated). A file that is not a study CSV, or a row whose number of fields is not the
-    header's (a file cut mid-row), ends the script with a message naming the file and line."""
+    share one file), its parameters, the linear P99, the Pd, its outputs as (name, P99, P99
+    uncompensated) and the case's means (linear and angular P99, each with and without compensation;
+    NaN where a cell is empty). A file that is not a study CSV, a row that does not hold the fixed
+    columns and whole outputs (a file cut mid-row; a row of another recording's outputs is accepted),
+    or a number that is not one ends the script with a message naming the file, line and column."""
     out = []
     try:
         with open(path, newline="") as f:
@@ -79,24 +81,28 @@ def read_study(path):
                 r = dict(zip(header[:fixed], row))  # a header repeated inside has status "status": left out below
                 if r["status"] != "ok" or not r["P99_linear"] or not r["Pd"]:
                     continue
-                try:
-                    p99, pd = float(r["P99_linear"]), float(r["Pd"])
-                    # An output's name from the header where the row has the header's outputs, else its
-                    # position (a row of a recording with other outputs, joined under another header).
-                    outputs = [(header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
-                                else f"output {(b - fixed) // 6 + 1}",
-                                float(row[b + 2]) if row[b + 2] else math.nan,
-                                float(row[b + 4]) if row[b + 4] else math.nan)
-                               for b in range(fixed, len(row), 6)]
-                except ValueError:
-                    raise SystemExit(f"{path}:{reader.line_num}: P99_linear {r['P99_linear']!r}, Pd {r['Pd']!r} or an "
-                                     f"output's P99 is not a number")
+                def cell(i, what):
+                    """The number in field i (what: its name for the message); an empty cell is NaN (not
+                    measured, e.g. no angular output); any other text ends the script naming it."""
+                    try:
+                        return float(row[i]) if row[i] else math.nan
+                    except ValueError:
+                        raise SystemExit(f"{path}:{reader.line_num}: {what} {row[i]!r} is not a number")
+                p99, pd = cell(col["P99_linear"], "P99_linear"), cell(col["Pd"], "Pd")
                 if not (math.isfinite(p99) and math.isfinite(pd)):
                     continue  # no point to place (as an empty cell)
-                # The case's mean linear and angular P99 with and without compensation (NaN: none, e.g. no
-                # angular output, or a file without the columns).
-                means = [number(r.get(c, "")) for c in ("P99_linear", "uncompensated_P99_linear", "P99_angular",
-                                                        "uncompensated_P99_angular")]
+                # An output's name from the header where the row has the header's outputs, else its
+                # position (a row of a recording with other outputs, joined under another header).
+                outputs = []
+                for b in range(fixed, len(row), 6):
+                    name = (header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
+                            else f"output {(b - fixed) // 6 + 1}")
+                    outputs.append((name, cell(b + 2, f"the P99 of {name}"),
+                                    cell(b + 4, f"the uncompensated P99 of {name}")))
+                # The case's mean linear and angular P99 with and without compensation (NaN: empty, e.g. no
+                # angular output, or a file without the column).
+                means = [cell(col[c], c) if c in col else math.nan
+                         for c in ("P99_linear", "uncompensated_P99_linear", "P99_angular", "uncompensated_P99_angular")]
                 k = case_key(r["case"])
                 name = " ".join(f"{p}={r[p]}" for p in params)
                 if (k, name) in seen:
@@ -118,14 +124,6 @@ def rows(records):
     for r in records:
         by_case[r["key"]].append((r["P99"], r["Pd"], r["set"]))
     return by_case
-
-
-def number(text):
-    """A CSV cell as a number; NaN for an empty or unreadable one."""
-    try:
-        return float(text) if text else math.nan
-    except ValueError:
-        return math.nan
 
 
 def case_worse(record):
@@ -272,8 +270,8 @@ def main():
     ap.add_argument("--svg", help="also draw both fronts per case, one SVG per seed: PREFIX-own.svg, PREFIX-seed-S.svg")
     ap.add_argument("--fronts", action="store_true", help="also list the fronts' points")
     ap.add_argument("--worse-by", metavar="PARAM[,PARAM...]",
-                    help="also count the runs with an output worse than uncompensated (its P99 above its P99 "
-                         "without compensation), per value of these parameters (empty: all runs of a file)")
+                    help="also count the runs whose case (its mean linear or angular P99) or an output (its P99) "
+                         "is worse than uncompensated, per value of these parameters (empty: all runs of a file)")
     args = ap.parse_args()
     sa, sb = read_study(args.a), read_study(args.b)
     ra, rb = rows(sa), rows(sb)
@@ -323,7 +321,13 @@ def main():
             print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")
     if args.worse_by is not None:
         by = [b for b in args.worse_by.split(",") if b]
-        print(f"\noutputs worse than uncompensated (linear or angular P99 with ALC above that without)\n")
+        known = {p for r in sa + sb for p in r["params"]}
+        unknown = [b for b in by if b not in known]
+        if unknown:
+            raise SystemExit(f"--worse-by: {', '.join(unknown)} is a parameter of neither {args.a} nor {args.b} "
+                             f"(theirs: {', '.join(sorted(known)) or 'none'})")
+        print(f"\nworse than uncompensated: the case (its mean linear or angular P99 with ALC above that without) "
+              f"and per output (its P99)\n")
         print("\n".join(worse_table([(la, sa), (lb, sb)], by)))
     if args.fronts:
         print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")

@@ -62,7 +62,7 @@ for g in paper adaptive; do
   done
 done
 # --worse-by: the runs with an output worse than uncompensated, with the guard's move check on (0.5), off
-# (inf) and moot (no Post-CP probes) (docs/adaptive.md, "Evidence").
+# (inf) and moot (no Post-CP probes) (docs/adaptive.md, "Judged on the Pareto front" and "What remains").
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
   --svg "$out/fronts" --worse-by move-fraction | tee "$out/fronts.md"
 echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"

@@ -12,6 +12,7 @@ import unittest
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPT = os.path.join(HERE, "..", "..", "scripts", "compare_fronts.py")
 sys.path.insert(0, os.path.dirname(SCRIPT))
+sys.dont_write_bytecode = True  # no scripts/__pycache__ in the source tree
 import compare_fronts as cf  # noqa: E402
 
 # The columns compare_fronts.py reads, in the order `alc study --csv` writes them, with two outputs.
@@ -82,6 +83,16 @@ class ReadTest(Files):
         r = cf.read_study(self.write("p.csv", [HEADER, one]))[0]
         self.assertEqual(r["key"], ("S16", "seed 2"))
         self.assertEqual(r["outputs"], [("output 1", 7.0, 6.0)])
+        # No angular output: its means are empty, no number to be worse with; the linear 2 < 9 is not worse.
+        self.assertFalse(cf.case_worse(r))
+        self.assertEqual(cf.worse(r), ["output 1"])
+
+    def test_an_empty_output_p99_is_not_worse(self):
+        # E_X not measured (empty P99 with ALC), E_A's uncompensated P99 empty: neither is worse, nor 0.
+        r = cf.read_study(self.write("p.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1, x=("", 2.0), a=(3.0, ""))]))[0]
+        self.assertEqual([o[0] for o in r["outputs"]], ["E_X", "E_A"])
+        self.assertNotEqual(r["outputs"][0][1], 0.0)
+        self.assertEqual(cf.worse(r), [])
 
     def test_a_row_cut_short_names_the_file_and_line(self):
         path = self.write("cut.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1), "2,A,3,0.5,ok,,95,1,3,9,4,0,0"])
@@ -93,8 +104,12 @@ class ReadTest(Files):
         bad = row(1, "A", 2, 0.5, 95, 1).replace(",0,0,1.0,0,2.0,", ",0,0,x1,0,2.0,")
         with self.assertRaises(SystemExit) as e:
             cf.read_study(self.write("bad.csv", [HEADER, bad]))
-        self.assertIn("bad.csv:2:", str(e.exception))
-        self.assertIn("not a number", str(e.exception))
+        self.assertIn("bad.csv:2: the P99 of E_X 'x1' is not a number", str(e.exception))
+        # A case mean is read as strictly: only an empty cell is no number.
+        bad = row(1, "A", 2, 0.5, 95, 1, lin_u="n/a")
+        with self.assertRaises(SystemExit) as e:
+            cf.read_study(self.write("bad2.csv", [HEADER, bad]))
+        self.assertIn("bad2.csv:2: uncompensated_P99_linear 'n/a' is not a number", str(e.exception))
 
     def test_a_file_without_the_columns_is_refused(self):
         with self.assertRaises(SystemExit) as e:
@@ -122,15 +137,39 @@ class WorseTest(Files):
         self.assertEqual(cf.worse_table([("paper", paper)], [])[2:],
                          ["| paper | all | 4 | 2 | 2 | 3 / 8 | A (1), B (1) |"])
 
+    def test_values_in_numeric_order_then_moot_and_recordings_by_name(self):
+        # Written out of order: a string sort would put 10 before 2; recordings listed B before A.
+        paper = cf.read_study(self.write("p.csv", [
+            HEADER,
+            row(1, "B", "", 0.5, 95, 1),
+            row(2, "B", "inf", 0.5, 95, 1),
+            row(3, "B", 10, 0.5, 95, 1, x=(3.0, 2.0)),
+            row(4, "A", 10, 0.5, 95, 1, x=(3.0, 2.0)),
+            row(5, "B", 2, 0.5, 95, 9, ang=(4.0, 4.0)),  # case means equal to uncompensated: not worse
+        ]))
+        lines = cf.worse_table([("paper", paper)], ["interval"])
+        self.assertEqual(lines[2:], [
+            "| paper | 2 | 1 | 0 | 0 | 0 / 2 | — |",
+            "| paper | 10 | 2 | 0 | 2 | 2 / 4 | A (1), B (1) |",
+            "| paper | inf | 1 | 0 | 0 | 0 / 2 | — |",
+            "| paper | (moot) | 1 | 0 | 0 | 0 / 2 | — |",
+        ])
+
     def test_the_command_prints_the_table_after_the_fronts(self):
         a = self.write("a.csv", [HEADER, row(1, "A", 2, 0.5, 95, 2.0), row(2, "A", 2, "inf", 96, 3.0, x=(3, 2))])
         b = self.write("b.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1.5)])
         out = subprocess.run([sys.executable, SCRIPT, a, b, "--label-a", "paper", "--label-b", "adaptive",
                               "--worse-by", "move-fraction"], capture_output=True, text=True, check=True).stdout
         self.assertIn("| A | 1 of 2 | 0 of 1 |", out)  # adaptive's (1.5, 95) dominates paper's (2, 95) only
-        tail = out[out.index("outputs worse than uncompensated"):].splitlines()
+        tail = out[out.index("worse than uncompensated: the case"):].splitlines()
         self.assertIn("| paper | inf | 1 | 0 | 1 | 1 / 2 | A (1) |", tail)
         self.assertIn("| adaptive | 0.5 | 1 | 0 | 0 | 0 / 2 | — |", tail)
+        # A parameter neither file has is refused, naming theirs.
+        bad = subprocess.run([sys.executable, SCRIPT, a, b, "--worse-by", "move_fraction"], capture_output=True,
+                             text=True)
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--worse-by: move_fraction is a parameter of neither", bad.stderr)
+        self.assertIn("(theirs: interval, move-fraction)", bad.stderr)
         # Without --worse-by there is no such table.
         plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
         self.assertNotIn("worse than uncompensated", plain)
