@@ -95,10 +95,10 @@ def read_study(path):
                 # position (a row of a recording with other outputs, joined under another header).
                 outputs = []
                 for b in range(fixed, len(row), 6):
-                    name = (header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
-                            else f"output {(b - fixed) // 6 + 1}")
-                    outputs.append((name, cell(b + 2, f"the P99 of {name}"),
-                                    cell(b + 4, f"the uncompensated P99 of {name}")))
+                    output = (header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
+                              else f"output {(b - fixed) // 6 + 1}")
+                    outputs.append((output, cell(b + 2, f"the P99 of {output}"),
+                                    cell(b + 4, f"the uncompensated P99 of {output}")))
                 # The case's mean linear and angular P99 with and without compensation (NaN: empty, e.g. no
                 # angular output, or a file without the column).
                 means = [cell(col[c], c) if c in col else math.nan
