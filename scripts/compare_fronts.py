@@ -95,6 +95,9 @@ def read_study(path):
                 # position (a row of a recording with other outputs, joined under another header).
                 outputs = []
                 for b in range(fixed, len(row), 6):
+                    if not any(row[b:b + 6]):
+                        continue  # all six cells empty: an output the recording does not have (a study over
+                        # recordings with other outputs writes every output of any of them in each row)
                     output = (header[b][:-len("_PV")] if len(row) == len(header) and header[b].endswith("_PV")
                               else f"output {(b - fixed) // 6 + 1}")
                     outputs.append((output, cell(b + 2, f"the P99 of {output}"),

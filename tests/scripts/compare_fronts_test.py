@@ -87,6 +87,13 @@ class ReadTest(Files):
         self.assertFalse(cf.case_worse(r))
         self.assertEqual(cf.worse(r), ["output 1"])
 
+    def test_an_output_the_recording_does_not_have_is_no_output(self):
+        # A study over recordings with other outputs writes every output of any in each row: E_X's six
+        # cells empty here, so the row has one output (E_A), not two.
+        r = cf.read_study(self.write("p.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1).replace(",0,0,1.0,0,2.0,10,", ",,,,,,,")]))[0]
+        self.assertEqual(r["outputs"], [("E_A", 3.0, 4.0)])
+        self.assertEqual(cf.worse_table([("paper", [r])], [])[2:], ["| paper | all | 1 | 0 | 0 | 0 / 1 | — |"])
+
     def test_an_empty_output_p99_is_not_worse(self):
         # E_X not measured (empty P99 with ALC), E_A's uncompensated P99 empty: neither is worse, nor 0.
         r = cf.read_study(self.write("p.csv", [HEADER, row(1, "A", 2, 0.5, 95, 1, x=("", 2.0), a=(3.0, ""))]))[0]
