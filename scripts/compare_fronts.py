@@ -39,6 +39,11 @@ def case_key(name):
     return (m.group(1), f"seed {m.group(2)}") if m else (base, "own")
 
 
+def recording_name(key):
+    """('A', 'own') -> 'A'; ('A', 'seed 2') -> 'A seed 2': a recording as the tables name it."""
+    return key[0] if key[1] == "own" else f"{key[0]} {key[1]}"
+
+
 REQUIRED = ("case", "status", "Pd", "P99_linear")  # the columns of `alc study --csv` read here
 
 
@@ -162,15 +167,16 @@ def worse_table(files, by):
             groups[tuple(r["params"].get(b, "—") or "(moot)" for b in by)].append(r)
         for value in sorted(groups, key=lambda v: [value_order(x) for x in v]):
             rs = groups[value]
-            bad = [r for r in rs if worse(r)]
+            worse_outputs = [worse(r) for r in rs]
             where = defaultdict(int)
-            for r in bad:
-                where[r["key"][0] if r["key"][1] == "own" else f"{r['key'][0]} {r['key'][1]}"] += 1
+            for r, w in zip(rs, worse_outputs):
+                if w:
+                    where[recording_name(r["key"])] += 1
             n_out = sum(len(r["outputs"]) for r in rs)
-            n_bad = sum(len(worse(r)) for r in rs)
+            n_bad = sum(len(w) for w in worse_outputs)
             text = ", ".join(f"{k} ({n})" for k, n in sorted(where.items())) or "—"
             n_case = sum(case_worse(r) for r in rs)
-            lines.append(f"| {label} | {' | '.join(value) if by else 'all'} | {len(rs)} | {n_case} | {len(bad)} | "
+            lines.append(f"| {label} | {' | '.join(value) if by else 'all'} | {len(rs)} | {n_case} | {sum(map(bool, worse_outputs))} | "
                          f"{n_bad} / {n_out} | {text} |")
     return lines
 
@@ -294,8 +300,7 @@ def main():
         (wa, ta), (wb, tb) = won["a"], won["b"]
         for who in won:
             wins[who] += won[who][0]
-        name = k[0] if k[1] == "own" else f"{k[0]} {k[1]}"
-        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
+        print(f"| {recording_name(k)} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
               f"{area(fb, floor, limit):.2f} | {tb} | {ta} |")
     total = sum(wins.values())
     if total > 0:
@@ -336,8 +341,7 @@ def main():
         print(f"\n| recording | front {la} (P99 µm / Pd %) | front {lb} (P99 µm / Pd %) |\n| --- | --- | --- |")
         show = lambda fr: " ".join(f"{p:.2f}/{d:.2f}" for p, d, _ in fr)
         for k in keys:
-            name = k[0] if k[1] == "own" else f"{k[0]} {k[1]}"
-            print(f"| {name} | {show(front(ra.get(k, [])))} | {show(front(rb.get(k, [])))} |")
+            print(f"| {recording_name(k)} | {show(front(ra.get(k, [])))} | {show(front(rb.get(k, [])))} |")
     if args.svg:
         for seed in sorted({k[1] for k in keys}, key=lambda s: (s != "own", s)):
             ks = [k for k in keys if k[1] == seed]

@@ -3,7 +3,8 @@
 # the paper-schedule and adaptive-schedule studies (docs/grids-{paper,adaptive}-schedule*.toml, every
 # file of a schedule) on every case (A-D, S16, H1-H5) at their own seeds and at the seeds in SEEDS
 # (default "2 3"; SEEDS= empty: the own seeds only; recordings made with `alc simulate --case X --seed
-# S`), then the comparison tables, the runs with an output worse than uncompensated and one SVG per seed.
+# S`), then the comparison tables, the runs whose case or an output is worse than uncompensated and one SVG
+# per seed.
 #
 # usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2 in the environment)
 # ALC defaults to build/release/cli/alc of this checkout, the build of scripts/main.sh (run that first;
@@ -61,7 +62,7 @@ for g in paper adaptive; do
     done
   done
 done
-# --worse-by: the runs with an output worse than uncompensated, with the guard's move check on (0.5), off
+# --worse-by: the runs whose case or an output is worse than uncompensated, with the guard's move check on (0.5), off
 # (inf) and moot (no Post-CP probes) (docs/adaptive.md, "Judged on the Pareto front" and "What remains").
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
   --svg "$out/fronts" --worse-by move-fraction | tee "$out/fronts.md"
