@@ -33,8 +33,8 @@ done
 for g in paper adaptive; do
   rm -f "$out/$g.csv"
   part=0
-  # Every grid file of the schedule (docs/grids-adaptive-schedule.toml and -rare.toml: the same keys in
-  # the same order, so their rows share one file; compare_fronts.py names a set by its values).
+  # Every grid file of the schedule (docs/grids-adaptive-schedule.toml, -dense.toml and -rare.toml: the
+  # same keys in the same order, so their rows share one file; compare_fronts.py names a set by its values).
   for grid in "$here"/docs/grids-"$g"-schedule*.toml; do
     # The cases at their own seeds, then each other seed's recordings (the case column names the file).
     for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
