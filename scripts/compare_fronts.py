@@ -255,12 +255,35 @@ def crossings(fa, fb):
 
 
 def duel(fa, fb):
-    """How fronts A and B compare: points of A dominated by B, of B by A, and per winner ('a', 'b', '=')
-    the width and the text of the Pd ranges where it has the lower P99."""
+    """How fronts A and B compare: points of A dominated by B, of B by A, per winner ('a', 'b', '=') the
+    width and the text of the Pd ranges where it has the lower P99, and per winner the width of those
+    at a Pd that both fronts reach: from the higher of their lowest Pd up. Below it the front with the
+    higher lowest Pd has no set, its best there is its lowest-Pd point, so the other wins there by
+    probing more than the first one's grid allows, not by its P99 at a Pd both reach."""
     da = sum(any(dominates(q, p) for q in fb) for p in fa)
     db = sum(any(dominates(q, p) for q in fa) for p in fb)
     ranges = crossings(fa, fb)
-    return da, db, {who: describe(ranges, who) for who in ("a", "b", "=")}
+    won = {who: describe(ranges, who) for who in ("a", "b", "=")}
+    both = max(min((d for _, d, _ in fr), default=-math.inf) for fr in (fa, fb))
+    common = {who: max(0.0, round(won[who][0] - below(ranges, who, both), 6)) for who in won}
+    return da, db, won, common
+
+
+def shares(widths, first, second):
+    """'x / y / z %': the shares of widths[first], widths[second] and widths['='] in their sum."""
+    total = sum(widths[w] for w in (first, second, "="))
+    return " / ".join(f"{100 * widths[w] / total:.1f}" for w in (first, second, "=")) + " %" if total > 0 else "—"
+
+
+def below(ranges, who, pd_limit):
+    """The width of the Pd ranges that `who` wins below pd_limit (steps of 0.01 %, as crossings)."""
+    width = 0.0
+    for lo, hi, w in ranges:
+        if w != who:
+            continue
+        steps = int(round((hi - lo) / 0.01)) + 1
+        width += 0.01 * min(steps, max(0, math.ceil((pd_limit - 1e-9 - lo) / 0.01)))
+    return width
 
 
 def describe(ranges, who):
@@ -291,15 +314,16 @@ def main():
     print(f"| recording | {la} points dominated by {lb} | {lb} points dominated by {la} | area {la} | area {lb} | "
           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    wins = defaultdict(float)
+    wins, commons = defaultdict(float), defaultdict(float)
     for k in keys:
         fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
-        da, db, won = duel(fa, fb)
+        da, db, won, common = duel(fa, fb)
         floor = min([d for _, d, _ in fa + fb], default=95.0)
         limit = 2.5 * min([p for p, _, _ in fa + fb], default=2.0)
         (wa, ta), (wb, tb) = won["a"], won["b"]
         for who in won:
             wins[who] += won[who][0]
+            commons[who] += common[who]
         print(f"| {recording_name(k)} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
               f"{area(fb, floor, limit):.2f} | {tb} | {ta} |")
     total = sum(wins.values())
@@ -307,11 +331,13 @@ def main():
         print(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
               f"{la} lower on {100 * wins['a'] / total:.1f} %, equal (within 0.005 µm) on "
               f"{100 * wins['='] / total:.1f} % of the Pd range")
+        print(f"over the Pd range both fronts reach (from the higher of their lowest Pd up): {lb} / {la} / equal "
+              f"{shares(commons, 'b', 'a')}")
     print(f"\npooled: one point per set, the mean linear P99 and mean Pd over the group's recordings\n")
     print(f"| group (recordings) | {la} points dominated by {lb} | {lb} points dominated by {la} | "
           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
-          f"{lb} / {la} / equal |")
-    print("| --- | --- | --- | --- | --- | --- |")
+          f"{lb} / {la} / equal | the same over the Pd both reach |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     # The recordings both files have (a recording in one file only would empty the other's pooled front).
     left_out = defaultdict(int)
     for name, ks in groups([k for k in keys if k in ra and k in rb]):
@@ -319,11 +345,10 @@ def main():
         left_out[la] = max(left_out[la], oa)
         left_out[lb] = max(left_out[lb], ob)
         fa, fb = front(pa), front(pb)
-        da, db, won = duel(fa, fb)
-        (wa, ta), (wb, tb), (we, _) = won["a"], won["b"], won["="]
-        total = wa + wb + we
-        share = f"{100 * wb / total:.1f} / {100 * wa / total:.1f} / {100 * we / total:.1f} %" if total else "—"
-        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} |")
+        da, db, won, common = duel(fa, fb)
+        (_, ta), (_, tb) = won["a"], won["b"]
+        share = shares({w: won[w][0] for w in won}, "b", "a")
+        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} | {shares(common, 'b', 'a')} |")
     for label, n in left_out.items():
         if n:
             print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")

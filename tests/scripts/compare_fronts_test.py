@@ -57,6 +57,19 @@ class FrontTest(unittest.TestCase):
         spans = [(round(lo, 2), round(hi, 2), w) for lo, hi, w in cf.crossings(fa, fb)]
         self.assertEqual(spans, [(94.0, 94.0, "b"), (94.01, 95.0, "a"), (95.01, 96.0, "b")])
 
+    def test_the_shares_over_the_pd_both_fronts_reach(self):
+        # A: 1 µm at Pd 90, 2 µm at 96; B: 1.5 µm at 94, 3 µm at 97. Along Pd 90.00-97.00: at 90.00 A (1 <
+        # 1.5); 90.01-94.00 B (A's best above 90 is 2); 94.01-96.00 A (2 < 3); 96.01-97.00 B (A has no
+        # point). Widths: A 0.01 + 2.00 = 2.01, B 4.00 + 1.00 = 5.00. Both reach from Pd 94 (B's lowest):
+        # A 2.00, B 0.01 (94.00) + 1.00 = 1.01; shares of 3.01: B 33.6 %, A 66.4 %, equal 0.
+        fa = cf.front([(1.0, 90.0, "a1"), (2.0, 96.0, "a2")])
+        fb = cf.front([(1.5, 94.0, "b1"), (3.0, 97.0, "b2")])
+        _, _, won, common = cf.duel(fa, fb)
+        self.assertEqual({w: round(won[w][0], 2) for w in won}, {"a": 2.01, "b": 5.0, "=": 0.0})
+        self.assertEqual({w: round(common[w], 2) for w in common}, {"a": 2.0, "b": 1.01, "=": 0.0})
+        self.assertEqual(cf.shares(common, "b", "a"), "33.6 / 66.4 / 0.0 %")
+        self.assertEqual(cf.shares({"a": 0.0, "b": 0.0, "=": 0.0}, "b", "a"), "—")
+
     def test_pooled_means_the_sets_that_ran_on_every_recording(self):
         by_case = {("A", "own"): [(1.0, 90.0, "s1"), (2.0, 96.0, "s2")], ("B", "own"): [(3.0, 94.0, "s1")]}
         points, left_out = cf.pooled(by_case, [("A", "own"), ("B", "own")])
