@@ -14,11 +14,14 @@ Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts
 - along Pd: the best P99 each front reaches at a Pd of at least p, for p over the Pd range of the two
   fronts in steps of 0.01 %; the Pd ranges where B's P99 is lower (B wins) and where A's is (A wins;
   a front that does not reach p has no P99 there and loses). These are where the fronts cross.
+  Summed over the cases: the shares of the Pd range each front wins, over the whole range and over
+  only the Pd both fronts reach (from the higher of their two lowest Pd up: below it one front has no
+  set, and the other wins or loses there by probing more often than the first one's grid allows).
 Then the pooled comparison: per group of recordings (A-D, the held-out cases H1-H5, all; each at the
 own seeds, at each other seed and at all seeds together) one point per parameter set, the mean over
 the group's recordings of its linear P99 and of its Pd, so a front of sets that a user would set once
-for every machine of the group rather than pick per recording in hindsight; the same Pd ranges and
-dominated points as above.
+for every machine of the group rather than pick per recording in hindsight; the same Pd ranges,
+dominated points and shares (both kinds) as above.
 With --worse-by PARAMS, the runs (set x recording) of each file whose mean linear or angular P99 is above
 that without compensation, and those with an output whose P99 is (the guard's "never worse", per case
 and per output), per value of those parameters.
