@@ -268,8 +268,7 @@ def duel(fa, fb):
     ranges = crossings(fa, fb)
     won = {who: describe(ranges, who) for who in ("a", "b", "=")}
     both = max(min((d for _, d, _ in fr), default=-math.inf) for fr in (fa, fb))
-    common = {who: max(0.0, round(won[who][0] - below(ranges, who, both), 6)) for who in won}
-    return da, db, won, common
+    return da, db, won, {who: won_from(ranges, who, both) for who in won}
 
 
 def shares(widths, first, second):
@@ -278,15 +277,15 @@ def shares(widths, first, second):
     return " / ".join(f"{100 * widths[w] / total:.1f}" for w in (first, second, "=")) + " %" if total > 0 else "—"
 
 
-def below(ranges, who, pd_limit):
-    """The width of the Pd ranges that `who` wins below pd_limit (steps of 0.01 %, as crossings)."""
-    width = 0.0
+def won_from(ranges, who, pd_from):
+    """The width of the Pd ranges that `who` wins at a Pd of pd_from or more (the steps of 0.01 % of
+    crossings, each step counted as describe counts it)."""
+    steps = 0
     for lo, hi, w in ranges:
-        if w != who:
-            continue
-        steps = int(round((hi - lo) / 0.01)) + 1
-        width += 0.01 * min(steps, max(0, math.ceil((pd_limit - 1e-9 - lo) / 0.01)))
-    return width
+        if w == who:
+            n = int(round((hi - lo) / 0.01)) + 1
+            steps += n - min(n, max(0, math.ceil((pd_from - 1e-9 - lo) / 0.01)))
+    return 0.01 * steps
 
 
 def describe(ranges, who):
