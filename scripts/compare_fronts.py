@@ -16,12 +16,17 @@ Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts
   a front that does not reach p has no P99 there and loses). These are where the fronts cross.
   Summed over the cases: the shares of the Pd range each front wins, over the whole range and over
   only the Pd both fronts reach (from the higher of their two lowest Pd up: below it one front has no
-  set, and the other wins or loses there by probing more often than the first one's grid allows).
+  set, and the other wins or loses there by probing more often than the first one's grid allows);
+- B's P99 against A's at equal Pd: the mean of (B - A) / A over the Pd both fronts reach (from the
+  higher lowest to the lower highest Pd, steps of 0.01 %), which weighs by how much a front is lower,
+  not only where; over the cases its mean and median, on how many B is the lower on average, and the
+  two-sided p of a sign test of that split (how likely so uneven a split is if neither front were
+  the better one).
 Then the pooled comparison: per group of recordings (A-D, the held-out cases H1-H5, all; each at the
 own seeds, at each other seed and at all seeds together) one point per parameter set, the mean over
 the group's recordings of its linear P99 and of its Pd, so a front of sets that a user would set once
 for every machine of the group rather than pick per recording in hindsight; the same Pd ranges,
-dominated points and shares (both kinds) as above.
+dominated points, shares (both kinds) and P99 at equal Pd as above.
 With --worse-by PARAMS, the runs (set x recording) of each file whose mean linear or angular P99 is above
 that without compensation, and those with an output whose P99 is (the guard's "never worse", per case
 and per output), per value of those parameters.
@@ -271,6 +276,39 @@ def duel(fa, fb):
     return da, db, won, {who: won_from(ranges, who, both) for who in won}
 
 
+def gap(fa, fb):
+    """B's P99 against A's at equal Pd, over the Pd both fronts reach (from the higher of their lowest Pd
+    to the lower of their highest, in the steps of 0.01 % of crossings): the mean of (B - A) / A in %, and
+    the number of steps; (nan, 0) where the two ranges do not meet. Negative: B is the lower on average.
+    Unlike the shares, it weighs by how much a front is lower, not only where."""
+    if not fa or not fb:
+        return math.nan, 0
+    lo = max(min(d for _, d, _ in fr) for fr in (fa, fb))
+    hi = min(max(d for _, d, _ in fr) for fr in (fa, fb))
+    if hi < lo - 1e-9:
+        return math.nan, 0
+    diffs = []
+    for k in range(int(round((hi - lo) / 0.01)) + 1):
+        pd = min(lo + k * 0.01, hi)
+        a, b = best_at(fa, pd), best_at(fb, pd)
+        diffs.append(100.0 * (b - a) / a)
+    return sum(diffs) / len(diffs), len(diffs)
+
+
+def sign_test(lower, n):
+    """The two-sided p of a sign test: the chance of a split at least as uneven as `lower` of n if either
+    front were as likely as the other to be the lower on average (exact binomial, p = 1/2)."""
+    if n == 0:
+        return math.nan
+    k = min(lower, n - lower)
+    return min(1.0, 2.0 * sum(math.comb(n, i) for i in range(k + 1)) / 2 ** n)
+
+
+def percent(x):
+    """A signed percentage with one decimal ('—' for none)."""
+    return "—" if math.isnan(x) else f"{x:+.1f} %"
+
+
 def shares(widths, first, second):
     """'x / y / z %': the shares of widths[first], widths[second] and widths['='] in their sum."""
     total = sum(widths[w] for w in (first, second, "="))
@@ -314,9 +352,10 @@ def main():
                        if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
     keys = sorted(set(ra) | set(rb), key=order)
     print(f"| recording | {la} points dominated by {lb} | {lb} points dominated by {la} | area {la} | area {lb} | "
-          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
-    wins, commons = defaultdict(float), defaultdict(float)
+          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | "
+          f"{lb}'s P99 against {la}'s at equal Pd |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    wins, commons, gaps = defaultdict(float), defaultdict(float), []
     for k in keys:
         fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
         da, db, won, common = duel(fa, fb)
@@ -326,8 +365,11 @@ def main():
         for who in won:
             wins[who] += won[who][0]
             commons[who] += common[who]
+        g, steps = gap(fa, fb)
+        if steps:
+            gaps.append(g)
         print(f"| {recording_name(k)} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
-              f"{area(fb, floor, limit):.2f} | {tb} | {ta} |")
+              f"{area(fb, floor, limit):.2f} | {tb} | {ta} | {percent(g)} |")
     total = sum(wins.values())
     if total > 0:
         print(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
@@ -335,11 +377,18 @@ def main():
               f"{100 * wins['='] / total:.1f} % of the Pd range")
         print(f"over the Pd range both fronts reach (from the higher of their lowest Pd up): {lb} / {la} / equal "
               f"{shares(commons, 'b', 'a')}")
+    if gaps:
+        lower = sum(g < 0 for g in gaps)
+        ordered = sorted(gaps)
+        median = (ordered[(len(ordered) - 1) // 2] + ordered[len(ordered) // 2]) / 2
+        print(f"{lb}'s P99 against {la}'s at equal Pd (over the Pd both reach): mean {percent(sum(gaps) / len(gaps))}, "
+              f"median {percent(median)} over {len(gaps)} recordings, lower on average on {lower} of them, "
+              f"{la}'s on {sum(g > 0 for g in gaps)} (sign test, two-sided: p = {sign_test(lower, len(gaps)):.2g})")
     print(f"\npooled: one point per set, the mean linear P99 and mean Pd over the group's recordings\n")
     print(f"| group (recordings) | {la} points dominated by {lb} | {lb} points dominated by {la} | "
           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
-          f"{lb} / {la} / equal | the same over the Pd both reach |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+          f"{lb} / {la} / equal | the same over the Pd both reach | {lb}'s P99 against {la}'s at equal Pd |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     # The recordings both files have (a recording in one file only would empty the other's pooled front).
     left_out = defaultdict(int)
     for name, ks in groups([k for k in keys if k in ra and k in rb]):
@@ -350,7 +399,8 @@ def main():
         da, db, won, common = duel(fa, fb)
         (_, ta), (_, tb) = won["a"], won["b"]
         share = shares({w: won[w][0] for w in won}, "b", "a")
-        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} | {shares(common, 'b', 'a')} |")
+        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} | {shares(common, 'b', 'a')} | "
+              f"{percent(gap(fa, fb)[0])} |")
     for label, n in left_out.items():
         if n:
             print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")

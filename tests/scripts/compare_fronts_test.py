@@ -3,6 +3,7 @@
 docs/adaptive.md, on small study CSVs written here. Every expected value is worked out by hand in the
 comment beside it, not taken from the script. Run: python3 tests/scripts/compare_fronts_test.py
 (CTest: "scripts: compare_fronts")."""
+import math
 import os
 import subprocess
 import sys
@@ -69,6 +70,34 @@ class FrontTest(unittest.TestCase):
         self.assertEqual({w: round(common[w], 2) for w in common}, {"a": 2.0, "b": 1.01, "=": 0.0})
         self.assertEqual(cf.shares(common, "b", "a"), "33.6 / 66.4 / 0.0 %")
         self.assertEqual(cf.shares({"a": 0.0, "b": 0.0, "=": 0.0}, "b", "a"), "—")
+
+    def test_the_p99_at_equal_pd_over_the_pd_both_reach(self):
+        # The fronts of the shares' test. Both reach Pd 94 (B's lowest) to 96 (A's highest): 201 steps.
+        # At 94.00 B 1.5 against A 2 (-25 %); at 94.01-96.00 (200 steps) B 3 against A 2 (+50 %): the mean
+        # (-25 + 200 x 50) / 201 = 49.6269 %.
+        fa = cf.front([(1.0, 90.0, "a1"), (2.0, 96.0, "a2")])
+        fb = cf.front([(1.5, 94.0, "b1"), (3.0, 97.0, "b2")])
+        g, steps = cf.gap(fa, fb)
+        self.assertEqual(steps, 201)
+        self.assertAlmostEqual(g, 9975.0 / 201, places=9)
+        # The other way round: A against B, -33.3 % at 94.01-96.00 and +33.3 % at 94.00.
+        self.assertAlmostEqual(cf.gap(fb, fa)[0], (100 / 3 - 200 * 100 / 3) / 201, places=9)
+        # Ranges that do not meet (A up to Pd 90, B from 95), or a front without points: no figure.
+        g, steps = cf.gap(cf.front([(1.0, 90.0, "a")]), cf.front([(2.0, 95.0, "b")]))
+        self.assertTrue(math.isnan(g))
+        self.assertEqual(steps, 0)
+        self.assertEqual(cf.gap([], fb)[1], 0)
+        self.assertEqual(cf.percent(-25.0), "-25.0 %")
+        self.assertEqual(cf.percent(math.nan), "—")
+
+    def test_the_sign_test_of_the_split(self):
+        # 9 of 12: 2 x (1 + 12 + 66 + 220) / 4096 = 0.14599...; 0 of 5 (or 5 of 5): 2 / 32; 5 of 10: 1.
+        self.assertAlmostEqual(cf.sign_test(9, 12), 598 / 4096, places=12)
+        self.assertAlmostEqual(cf.sign_test(3, 12), 598 / 4096, places=12)
+        self.assertAlmostEqual(cf.sign_test(0, 5), 2 / 32, places=12)
+        self.assertAlmostEqual(cf.sign_test(5, 5), 2 / 32, places=12)
+        self.assertEqual(cf.sign_test(5, 10), 1.0)
+        self.assertTrue(math.isnan(cf.sign_test(0, 0)))
 
     def test_pooled_means_the_sets_that_ran_on_every_recording(self):
         by_case = {("A", "own"): [(1.0, 90.0, "s1"), (2.0, 96.0, "s2")], ("B", "own"): [(3.0, 94.0, "s1")]}
@@ -181,6 +210,11 @@ class WorseTest(Files):
         out = subprocess.run([sys.executable, SCRIPT, a, b, "--label-a", "paper", "--label-b", "adaptive",
                               "--worse-by", "move-fraction"], capture_output=True, text=True, check=True).stdout
         self.assertIn("| A | 1 of 2 | 0 of 1 |", out)  # adaptive's (1.5, 95) dominates paper's (2, 95) only
+        # Both reach Pd 95 only (adaptive's highest; above it only paper reaches and wins): 1.5 against 2, -25 %.
+        self.assertIn("| 95.00 | 95.01–96.00 | -25.0 % |", out)
+        self.assertIn("adaptive's P99 against paper's at equal Pd (over the Pd both reach): mean -25.0 %, median "
+                      "-25.0 % over 1 recordings, lower on average on 1 of them, paper's on 0 (sign test, two-sided: "
+                      "p = 1)", out)
         tail = out[out.index("worse than uncompensated: the case"):].splitlines()
         self.assertIn("| paper | inf | 1 | 0 | 1 | 1 / 2 | A (1) |", tail)
         self.assertIn("| adaptive | 0.5 | 1 | 0 | 0 | 0 / 2 | — |", tail)
