@@ -2,7 +2,7 @@
 """Compares the Pareto fronts (mean linear P99 against Pd) of two study CSV files case by case.
 
 usage: compare_fronts.py A.csv B.csv [--label-a paper] [--label-b adaptive] [--svg PREFIX] [--fronts]
-                         [--worse-by PARAM[,PARAM...]]
+                         [--worse-by PARAM[,PARAM...]] [--choose-on GROUP ...] [--sample-sets N [--seed S]]
 
 A front is the sets no other set of the same file beats in both (lower or equal P99, higher or equal
 Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts/fronts.sh) it prints
@@ -30,12 +30,21 @@ dominated points, shares (both kinds) and P99 at equal Pd as above.
 With --worse-by PARAMS, the runs (set x recording) of each file whose mean linear or angular P99 is above
 that without compensation, and those with an output whose P99 is (the guard's "never worse", per case
 and per output), per value of those parameters.
+Both tables pick each front's points from all sets in hindsight, per recording or per group, and a grid
+of more sets gains by that alone (each set's P99 has noise; the front keeps the luckiest). Two checks:
+with --choose-on GROUP (a group of the pooled table, its name without the count, e.g. "A-D, own seeds";
+may be repeated) each file's sets on the front pooled over that group are chosen there, as a user who
+tunes on those machines would, and both tables are printed again with only the chosen sets on the
+other recordings (out of sample); with --sample-sets N each file keeps N of its sets drawn at random
+(random.Random(--seed, default 1); a file of N sets or fewer keeps all), which compares grids of
+different size at the same size.
 With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
 Standard library only.
 """
 import argparse
 import csv
 import math
+import random
 import re
 from collections import defaultdict
 
@@ -333,28 +342,34 @@ def describe(ranges, who):
     return width, text or "—"
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("a")
-    ap.add_argument("b")
-    ap.add_argument("--label-a", default="A")
-    ap.add_argument("--label-b", default="B")
-    ap.add_argument("--svg", help="also draw both fronts per case, one SVG per seed: PREFIX-own.svg, PREFIX-seed-S.svg")
-    ap.add_argument("--fronts", action="store_true", help="also list the fronts' points")
-    ap.add_argument("--worse-by", metavar="PARAM[,PARAM...]",
-                    help="also count the runs whose case (its mean linear or angular P99) or an output (its P99) "
-                         "is worse than uncompensated, per value of these parameters (empty: all runs of a file)")
-    args = ap.parse_args()
-    sa, sb = read_study(args.a), read_study(args.b)
-    ra, rb = rows(sa), rows(sb)
-    la, lb = args.label_a, args.label_b
-    order = lambda k: (k[1] != "own", k[1], ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"].index(k[0])
-                       if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
-    keys = sorted(set(ra) | set(rb), key=order)
-    print(f"| recording | {la} points dominated by {lb} | {lb} points dominated by {la} | area {la} | area {lb} | "
-          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | "
-          f"{lb}'s P99 against {la}'s at equal Pd |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+def choose(by_case, keys):
+    """The sets on the front pooled over `keys`: what a user who tunes on those recordings would choose
+    from (one set for every machine of the group), before judging them on others."""
+    return {s for _, _, s in front(pooled(by_case, keys)[0])}
+
+
+def only(by_case, sets):
+    """by_case (rows) with only the points of `sets`."""
+    return {k: [p for p in v if p[2] in sets] for k, v in by_case.items()}
+
+
+def sample_sets(records, n, seed):
+    """The rows of n of the file's sets drawn at random (random.Random(seed), from its sets by name), or
+    all rows where the file has n sets or fewer; and how many sets it had. A front of more sets is
+    lower by selection alone (each set's P99 has noise, the front keeps the luckiest), so two grids of
+    very different size compare better at the same size."""
+    sets = sorted({r["set"] for r in records})
+    if len(sets) <= n:
+        return records, len(sets)
+    pick = set(random.Random(seed).sample(sets, n))
+    return [r for r in records if r["set"] in pick], len(sets)
+
+
+def recording_table(ra, rb, keys, la, lb):
+    """The per-recording table and the lines under it (the shares, the P99 at equal Pd over the recordings)."""
+    out = [f"| recording | {la} points dominated by {lb} | {lb} points dominated by {la} | area {la} | area {lb} | "
+           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | "
+           f"{lb}'s P99 against {la}'s at equal Pd |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     wins, commons, gaps = defaultdict(float), defaultdict(float), []
     for k in keys:
         fa, fb = front(ra.get(k, [])), front(rb.get(k, []))
@@ -368,30 +383,34 @@ def main():
         g, steps = gap(fa, fb)
         if steps:
             gaps.append(g)
-        print(f"| {recording_name(k)} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
-              f"{area(fb, floor, limit):.2f} | {tb} | {ta} | {percent(g)} |")
+        out.append(f"| {recording_name(k)} | {da} of {len(fa)} | {db} of {len(fb)} | {area(fa, floor, limit):.2f} | "
+                   f"{area(fb, floor, limit):.2f} | {tb} | {ta} | {percent(g)} |")
     total = sum(wins.values())
     if total > 0:
-        print(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
-              f"{la} lower on {100 * wins['a'] / total:.1f} %, equal (within 0.005 µm) on "
-              f"{100 * wins['='] / total:.1f} % of the Pd range")
-        print(f"over the Pd range both fronts reach (from the higher of their lowest Pd up): {lb} / {la} / equal "
-              f"{shares(commons, 'b', 'a')}")
+        out.append(f"\nalong Pd over all {len(keys)} recordings: {lb} lower P99 on {100 * wins['b'] / total:.1f} %, "
+                   f"{la} lower on {100 * wins['a'] / total:.1f} %, equal (within 0.005 µm) on "
+                   f"{100 * wins['='] / total:.1f} % of the Pd range")
+        out.append(f"over the Pd range both fronts reach (from the higher of their lowest Pd up): {lb} / {la} / equal "
+                   f"{shares(commons, 'b', 'a')}")
     if gaps:
         lower = sum(g < 0 for g in gaps)
         ordered = sorted(gaps)
         median = (ordered[(len(ordered) - 1) // 2] + ordered[len(ordered) // 2]) / 2
-        print(f"{lb}'s P99 against {la}'s at equal Pd (over the Pd both reach): mean {percent(sum(gaps) / len(gaps))}, "
-              f"median {percent(median)} over {len(gaps)} recordings, lower on average on {lower} of them, "
-              f"{la}'s on {sum(g > 0 for g in gaps)} (sign test, two-sided: p = {sign_test(lower, len(gaps)):.2g})")
-    print(f"\npooled: one point per set, the mean linear P99 and mean Pd over the group's recordings\n")
-    print(f"| group (recordings) | {la} points dominated by {lb} | {lb} points dominated by {la} | "
-          f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
-          f"{lb} / {la} / equal | the same over the Pd both reach | {lb}'s P99 against {la}'s at equal Pd |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    # The recordings both files have (a recording in one file only would empty the other's pooled front).
+        out.append(f"{lb}'s P99 against {la}'s at equal Pd (over the Pd both reach): mean {percent(sum(gaps) / len(gaps))}, "
+                   f"median {percent(median)} over {len(gaps)} recordings, lower on average on {lower} of them, "
+                   f"{la}'s on {sum(g > 0 for g in gaps)} (sign test, two-sided: p = {sign_test(lower, len(gaps)):.2g})")
+    return out
+
+
+def pooled_table(ra, rb, keys, la, lb):
+    """The pooled table over the groups of `keys`, and a line per file whose sets were left out of a
+    pooled front."""
+    out = [f"| group (recordings) | {la} points dominated by {lb} | {lb} points dominated by {la} | "
+           f"Pd [%] where {lb} has the lower P99 | Pd [%] where {la} has the lower P99 | share of the Pd range: "
+           f"{lb} / {la} / equal | the same over the Pd both reach | {lb}'s P99 against {la}'s at equal Pd |",
+           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     left_out = defaultdict(int)
-    for name, ks in groups([k for k in keys if k in ra and k in rb]):
+    for name, ks in groups(keys):
         (pa, oa), (pb, ob) = pooled(ra, ks), pooled(rb, ks)
         left_out[la] = max(left_out[la], oa)
         left_out[lb] = max(left_out[lb], ob)
@@ -399,11 +418,70 @@ def main():
         da, db, won, common = duel(fa, fb)
         (_, ta), (_, tb) = won["a"], won["b"]
         share = shares({w: won[w][0] for w in won}, "b", "a")
-        print(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} | {shares(common, 'b', 'a')} | "
-              f"{percent(gap(fa, fb)[0])} |")
+        out.append(f"| {name} | {da} of {len(fa)} | {db} of {len(fb)} | {tb} | {ta} | {share} | "
+                   f"{shares(common, 'b', 'a')} | {percent(gap(fa, fb)[0])} |")
     for label, n in left_out.items():
         if n:
-            print(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")
+            out.append(f"\n{label}: up to {n} sets left out of a pooled front (not ok on every recording of the group)")
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("a")
+    ap.add_argument("b")
+    ap.add_argument("--label-a", default="A")
+    ap.add_argument("--label-b", default="B")
+    ap.add_argument("--svg", help="also draw both fronts per case, one SVG per seed: PREFIX-own.svg, PREFIX-seed-S.svg")
+    ap.add_argument("--fronts", action="store_true", help="also list the fronts' points")
+    ap.add_argument("--worse-by", metavar="PARAM[,PARAM...]",
+                    help="also count the runs whose case (its mean linear or angular P99) or an output (its P99) "
+                         "is worse than uncompensated, per value of these parameters (empty: all runs of a file)")
+    ap.add_argument("--choose-on", metavar="GROUP", action="append", default=[],
+                    help="also judge the sets chosen on a group of the pooled table (its name without the count, "
+                         "e.g. 'A-D, own seeds': the sets on each pooled front there) on the other recordings; "
+                         "may be given more than once")
+    ap.add_argument("--sample-sets", metavar="N", type=int,
+                    help="compare only N sets of each file, drawn at random (a file of N sets or fewer keeps all)")
+    ap.add_argument("--seed", type=int, default=1, help="the seed of --sample-sets' draw (default 1)")
+    args = ap.parse_args()
+    sa, sb = read_study(args.a), read_study(args.b)
+    la, lb = args.label_a, args.label_b
+    if args.sample_sets is not None:
+        if args.sample_sets < 1:
+            raise SystemExit(f"--sample-sets: {args.sample_sets} is not a number of sets (1 or more)")
+        for label, path, study in ((la, args.a, sa), (lb, args.b, sb)):
+            sampled, total = sample_sets(study, args.sample_sets, args.seed)
+            study[:] = sampled
+            kept = len({r["set"] for r in sampled})
+            print(f"{label} ({path}): {kept} of its {total} sets"
+                  + (f", drawn at random (seed {args.seed})" if kept < total else ""))
+        print()
+    ra, rb = rows(sa), rows(sb)
+    order = lambda k: (k[1] != "own", k[1], ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"].index(k[0])
+                       if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
+    keys = sorted(set(ra) | set(rb), key=order)
+    # The recordings both files have (a recording in one file only would empty the other's pooled front).
+    both = [k for k in keys if k in ra and k in rb]
+    named = {name.rsplit(" (", 1)[0]: ks for name, ks in groups(both)}
+    unknown = [g for g in args.choose_on if g not in named]
+    if unknown:
+        raise SystemExit(f"--choose-on: no group {', '.join(repr(g) for g in unknown)} in these files "
+                         f"(theirs: {', '.join(repr(n) for n in named)})")
+    print("\n".join(recording_table(ra, rb, keys, la, lb)))
+    print(f"\npooled: one point per set, the mean linear P99 and mean Pd over the group's recordings\n")
+    print("\n".join(pooled_table(ra, rb, both, la, lb)))
+    for g in args.choose_on:
+        tuned = named[g]
+        ca, cb = choose(ra, tuned), choose(rb, tuned)
+        rest = [k for k in both if k not in tuned]
+        print(f"\nchosen on {g} ({len(tuned)}): the sets on each front pooled there ({la} {len(ca)}, {lb} {len(cb)}), "
+              f"judged on the other {len(rest)} recordings\n")
+        if rest:
+            ta, tb = only(ra, ca), only(rb, cb)
+            print("\n".join(recording_table(ta, tb, rest, la, lb)))
+            print()
+            print("\n".join(pooled_table(ta, tb, rest, la, lb)))
     if args.worse_by is not None:
         by = [b for b in args.worse_by.split(",") if b]
         known = {p for r in sa + sb for p in r["params"]}

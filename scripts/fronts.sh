@@ -62,8 +62,10 @@ for g in paper adaptive; do
     done
   done
 done
-# --worse-by: the runs whose case or an output is worse than uncompensated, with the guard's move check on (0.5), off
-# (inf) and moot (no Post-CP probes) (docs/adaptive.md, "Judged on the Pareto front" and "What remains").
+# --choose-on: each schedule's sets on its front pooled over A-D at their own seeds, judged on the other recordings
+# (tuned on A-D, reported on the others; out of sample). --worse-by: the runs whose case or an output is worse than
+# uncompensated, with the guard's move check on (0.5), off (inf) and moot (no Post-CP probes) (docs/adaptive.md,
+# "Judged on the Pareto front" and "What remains").
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
-  --svg "$out/fronts" --worse-by move-fraction | tee "$out/fronts.md"
+  --svg "$out/fronts" --choose-on "A-D, own seeds" --worse-by move-fraction | tee "$out/fronts.md"
 echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"

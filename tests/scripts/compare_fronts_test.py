@@ -105,6 +105,29 @@ class FrontTest(unittest.TestCase):
         self.assertEqual(points, [(2.0, 92.0, "s1")])  # (1 + 3) / 2, (90 + 94) / 2; s2 is not on B
         self.assertEqual(left_out, 1)
 
+    def test_the_sets_chosen_are_those_of_the_front_pooled_over_the_group(self):
+        # Pooled over A and B: s1 (1.5, 92), s2 (2.5, 91) which s1 beats in both, s3 (2.5, 95); s4 ran on A
+        # only. The pooled front: s1 and s3. On A alone s2 (1.0, 90) would be on A's front, but it is not
+        # chosen: a user who tunes on the group sets one set for all of it.
+        by_case = {("A", "own"): [(1.0, 90.0, "s1"), (1.0, 90.0, "s2"), (2.0, 96.0, "s3"), (0.5, 99.0, "s4")],
+                   ("B", "own"): [(2.0, 94.0, "s1"), (4.0, 92.0, "s2"), (3.0, 94.0, "s3")]}
+        self.assertEqual(cf.choose(by_case, [("A", "own"), ("B", "own")]), {"s1", "s3"})
+        self.assertEqual(cf.only(by_case, {"s3"}), {("A", "own"): [(2.0, 96.0, "s3")], ("B", "own"): [(3.0, 94.0, "s3")]})
+
+    def test_a_sample_of_sets_keeps_whole_sets_and_repeats_with_its_seed(self):
+        # 5 sets on two recordings each: a sample of 2 keeps both rows of each set drawn, the same seed draws
+        # the same sets, and a file of no more sets than asked keeps all of them.
+        records = [{"key": (c, "own"), "set": f"s{i}"} for i in range(5) for c in ("A", "B")]
+        kept, total = cf.sample_sets(records, 2, 7)
+        self.assertEqual(total, 5)
+        names = {r["set"] for r in kept}
+        self.assertEqual(len(names), 2)
+        self.assertEqual(len(kept), 4)
+        self.assertEqual(kept, cf.sample_sets(records, 2, 7)[0])
+        draws = {frozenset(r["set"] for r in cf.sample_sets(records, 2, seed)[0]) for seed in range(20)}
+        self.assertGreater(len(draws), 1)  # the seed is used: 10 possible pairs, 20 seeds
+        self.assertEqual(cf.sample_sets(records, 5, 7), (records, 5))
+
 
 class ReadTest(Files):
     def test_rows_and_outputs_are_read_with_their_names(self):
@@ -227,6 +250,45 @@ class WorseTest(Files):
         # Without --worse-by there is no such table.
         plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
         self.assertNotIn("worse than uncompensated", plain)
+
+    def test_the_sets_chosen_on_one_group_are_judged_on_the_others(self):
+        # Paper: p1 (Pd 90, 2 µm) beats p2 (90, 3) on A and B at their own seeds, so p1 is chosen; at seed 2 p2
+        # is the better (1 against 2.5), but it was not chosen. Adaptive: q1 (90, 1.8) beats q2 (90, 2.2) at the
+        # own seeds; at seed 2 q1 2.0, q2 0.5. Judged at seed 2 with the chosen sets: q1 2.0 against p1 2.5,
+        # -20 % on both recordings (in hindsight it would be q2 0.5 against p2 1.0, -50 %).
+        lines_a, lines_b = [HEADER], [HEADER]
+        for case, (p1, p2, q1, q2) in {"A": (2, 3, 1.8, 2.2), "B": (2, 3, 1.8, 2.2),
+                                       "A seed 2": (2.5, 1.0, 2.0, 0.5), "B seed 2": (2.5, 1.0, 2.0, 0.5)}.items():
+            lines_a += [row(1, case, 1, 0.5, 90, p1), row(2, case, 2, 0.5, 90, p2)]
+            lines_b += [row(1, case, 1, 0.5, 90, q1), row(2, case, 2, 0.5, 90, q2)]
+        a, b = self.write("a.csv", lines_a), self.write("b.csv", lines_b)
+        out = subprocess.run([sys.executable, SCRIPT, a, b, "--label-a", "paper", "--label-b", "adaptive",
+                              "--choose-on", "A-D, own seeds"], capture_output=True, text=True, check=True).stdout
+        self.assertIn("| A seed 2 | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -50.0 % |", out)  # in hindsight
+        chosen = out[out.index("chosen on A-D, own seeds (2)"):]
+        self.assertIn("the sets on each front pooled there (paper 1, adaptive 1), judged on the other 2 recordings",
+                      chosen)
+        self.assertIn("| A seed 2 | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -20.0 % |", chosen)
+        self.assertIn("| B seed 2 | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -20.0 % |", chosen)
+        self.assertNotIn("| A |", chosen)  # the recordings it was chosen on are not judged again
+        self.assertIn("mean -20.0 %, median -20.0 % over 2 recordings, lower on average on 2 of them, paper's on 0 "
+                      "(sign test, two-sided: p = 0.5)", chosen)
+        self.assertIn("| A-D, seed 2 (2) | 1 of 1 | 0 of 1 | 90.00 | — | 100.0 / 0.0 / 0.0 % | 100.0 / 0.0 / 0.0 % | "
+                      "-20.0 % |", chosen)
+        # A group the files do not have is refused, naming theirs; so is a sample of no sets.
+        bad = subprocess.run([sys.executable, SCRIPT, a, b, "--choose-on", "A-D"], capture_output=True, text=True)
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--choose-on: no group 'A-D' in these files (theirs: 'A-D, own seeds', 'A-D, seed 2', "
+                      "'A-D, all seeds'", bad.stderr)
+        bad = subprocess.run([sys.executable, SCRIPT, a, b, "--sample-sets", "0"], capture_output=True, text=True)
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--sample-sets: 0 is not a number of sets", bad.stderr)
+        # A sample as large as both grids keeps every set and says so; the tables are those without it.
+        same = subprocess.run([sys.executable, SCRIPT, a, b, "--sample-sets", "2"], capture_output=True, text=True,
+                              check=True).stdout
+        self.assertTrue(same.startswith(f"A ({a}): 2 of its 2 sets\nB ({b}): 2 of its 2 sets\n\n"))
+        plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
+        self.assertEqual(same[same.index("| recording"):], plain)
 
 
 if __name__ == "__main__":
