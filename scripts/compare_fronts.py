@@ -450,13 +450,14 @@ def main():
     if args.sample_sets is not None:
         if args.sample_sets < 1:
             raise SystemExit(f"--sample-sets: {args.sample_sets} is not a number of sets (1 or more)")
+        sampled = []
         for label, path, study in ((la, args.a, sa), (lb, args.b, sb)):
-            sampled, total = sample_sets(study, args.sample_sets, args.seed)
-            study[:] = sampled
-            kept = len({r["set"] for r in sampled})
-            print(f"{label} ({path}): {kept} of its {total} sets"
-                  + (f", drawn at random (seed {args.seed})" if kept < total else ""))
+            records, total = sample_sets(study, args.sample_sets, args.seed)
+            sampled.append(records)
+            print(f"{label} ({path}): {min(args.sample_sets, total)} of its {total} sets"
+                  + (f", drawn at random (seed {args.seed})" if args.sample_sets < total else ""))
         print()
+        sa, sb = sampled
     ra, rb = rows(sa), rows(sb)
     order = lambda k: (k[1] != "own", k[1], ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"].index(k[0])
                        if k[0] in ["A", "B", "C", "D", "S16", "H1", "H2", "H3", "H4", "H5"] else 99, k[0])
