@@ -147,11 +147,18 @@ Timing bench_case(const scenarios::Scenario& scenario, int repeat, const std::fi
 void run_bench(const BenchArgs& a) {
   if (a.repeat < 1) throw UsageError("--repeat: must be at least 1, got " + std::to_string(a.repeat));
   const std::vector<std::string> names = load_case_names(a.case_name);
-  const auto dir = std::filesystem::temp_directory_path() / ("alc-bench-" + std::to_string(::getpid()));
+  // The scratch directory goes with its files however the run ends (a refused --long case too).
+  struct ScratchDir {
+    std::filesystem::path path;
+    ~ScratchDir() {
+      std::error_code ec;
+      std::filesystem::remove_all(path, ec);
+    }
+  } scratch{std::filesystem::temp_directory_path() / ("alc-bench-" + std::to_string(::getpid()))};
+  const auto& dir = scratch.path;
   std::filesystem::create_directories(dir);
   if (a.long_days > 0.0) {
     run_long_bench(a, dir);
-    std::filesystem::remove_all(dir);
     return;
   }
   std::printf("%-5s %8s %10s %12s %14s %12s %16s %9s %18s %9s\n", "case", "samples", "sim [ms]", "replay [ms]",
@@ -167,7 +174,6 @@ void run_bench(const BenchArgs& a) {
                 t.with_history_s * 1e3, t.with_history_s / t.replay_s, t.full_search_s * 1e3,
                 t.full_search_s / t.replay_s);
   }
-  std::filesystem::remove_all(dir);
   std::printf("best of %d runs each; default parameters (the paper's chosen set); full search: the same with\n"
               "--structure-refresh 1 (structure searched at every model update), speed-up = full search / replay\n",
               a.repeat);

@@ -2,6 +2,8 @@
 // window and for --window inf (figures only: no timing is asserted), and refuses a case it cannot stretch.
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
+#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -46,8 +48,20 @@ TEST_CASE("alc bench --long prints each checkpoint with and without the learning
   CHECK(std::stod(rows[1][8]) > 0.5);  // 12 days of history: several MB, WAL included
 }
 
-TEST_CASE("alc bench --long refuses a case that is not one of A-D") {
+TEST_CASE("alc bench --long refuses a case that is not one of A-D, and leaves no scratch directory") {
+  // The program's temp directory (TMPDIR) is one of this test's own, so that what it leaves is seen.
+  const auto tmp = alc_test::work_dir("bench_refused") / "tmp";
+  std::filesystem::create_directories(tmp);
+  const char* before = std::getenv("TMPDIR");
+  const std::string saved = before ? before : "";
+  ::setenv("TMPDIR", tmp.c_str(), 1);
   const alc_test::CliRun r = alc_test::run_alc("bench --long 5 --case S16", "bench_long");
+  if (before) ::setenv("TMPDIR", saved.c_str(), 1); else ::unsetenv("TMPDIR");
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("no load case 'S16'") != std::string::npos);
+  std::vector<std::string> left;  // (run_alc's own output directory is made there too: not counted)
+  for (const auto& e : std::filesystem::directory_iterator(tmp))
+    if (e.path().filename().string().rfind("alc-bench-", 0) == 0) left.push_back(e.path().filename().string());
+  INFO("scratch directories left in TMPDIR: " << left.size());
+  CHECK(left.empty());
 }

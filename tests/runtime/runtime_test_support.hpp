@@ -4,15 +4,20 @@
 #include <string>
 #include <unistd.h>
 
+#include "../cli_support.hpp"
 #include "runtime/replay.hpp"
 
 namespace alc::runtime::test {
 
-// A fresh history file path for one test (removed with its WAL files first).
+// A fresh history file path for one test (removed with its WAL files first, and again when the test
+// process exits).
 inline std::filesystem::path temp_db(const std::string& name) {
   const auto p = std::filesystem::temp_directory_path() /
                  ("alc-runtime-test-" + std::to_string(::getpid()) + "-" + name + ".sqlite");
-  for (const char* ext : {"", "-wal", "-shm"}) std::filesystem::remove(p.string() + ext);
+  for (const char* ext : {"", "-wal", "-shm"}) {
+    std::filesystem::remove(p.string() + ext);
+    alc_test::remove_at_exit(p.string() + ext);
+  }
   return p;
 }
 

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "../cli_support.hpp"
 #include "scenarios/load_cases.hpp"
 #include "supervisor/supervisor.hpp"
 
@@ -34,10 +35,12 @@ namespace alc::supervisor_test {
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
 
+// <tmp>/alc-supervisor-<name>-<pid>, fresh, removed with its files when the test process exits.
 inline fs::path temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("alc-supervisor-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
+  alc_test::remove_at_exit(d);
   return d;
 }
 
