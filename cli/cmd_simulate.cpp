@@ -39,7 +39,7 @@ std::string fixed(double value, int decimals) {
 
 std::string case_names() {
   std::string names;
-  for (const auto* list : {&sc::load_cases(), &sc::recording_cases(), &sc::heldout_cases()})
+  for (const auto* list : {&sc::load_cases(), &sc::recording_cases(), &sc::heldout_cases(), &sc::later_heldout_cases()})
     for (const auto& c : *list) names += (names.empty() ? "" : ", ") + c.name;
   return names + ", all (= A-D) or heldout (= H1-H5)";
 }
@@ -55,6 +55,8 @@ void print_list() {
   for (const auto& c : sc::recording_cases()) line(c);
   std::cout << "held-out variants of the C-axis twin (heldout):\n";
   for (const auto& c : sc::heldout_cases()) line(c);
+  std::cout << "held-out, built after the adaptive policy was settled (by name only):\n";
+  for (const auto& c : sc::later_heldout_cases()) line(c);
 }
 
 // The noiseless truth as a scenario CSV: true loads and node temperatures as inputs, the true
@@ -148,7 +150,7 @@ void add_simulate_command(CLI::App& app) {
       "sample and probe measurements of the errors (empty cells between probes). See docs/twin.md.");
   cmd->add_option("--case", args->case_name,
                   "Case to simulate: A, B, C, D (C-axis load cases, 8 days at 1 min), S16 (recording-like spindle run), "
-                  "H1-H5 (held-out variants of the C-axis twin), all (A-D) or heldout (H1-H5), the last two with --summary");
+                  "H1-H6 (held-out variants of the C-axis twin), all (A-D) or heldout (H1-H5), the last two with --summary");
   cmd->add_option("--out", args->out, "Write the scenario CSV (what sensors and the probe gave) to this file");
   cmd->add_option("--truth", args->truth,
                   "Also write the noiseless truth (loads, node temperatures, true errors at every sample) as CSV");

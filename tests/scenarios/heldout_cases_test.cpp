@@ -1,8 +1,9 @@
-// Held-out cases H1-H5: determinism for their seeds, the physics each claims (against the same
+// Held-out cases H1-H6: determinism for their seeds, the physics each claims (against the same
 // case and seed with that physics switched off), and a replay with the default set that finishes
 // with finite indicators.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -57,8 +58,26 @@ TEST_CASE("held-out cases: H1-H5 are listed apart from A-D with their sampling")
   CHECK(sc::load_case_spec("A").variant.sensors.empty());
 }
 
+TEST_CASE("held-out H6 is listed by name only, apart from H1-H5") {
+  const auto& later = sc::later_heldout_cases();
+  REQUIRE(later.size() == 1);
+  CHECK(later[0].name == "H6");
+  CHECK(later[0].step_s == 120.0);
+  CHECK(later[0].default_seed == 206);
+  CHECK(sc::find_case("H6").has_value());
+  CHECK(sc::load_case_spec("H6").info.name == "H6");
+  for (const auto& info : sc::heldout_cases()) CHECK(info.name != "H6");
+}
+
+// Every held-out case: H1-H5 and those built later.
+std::vector<sc::LoadCaseInfo> every_heldout_case() {
+  std::vector<sc::LoadCaseInfo> all = sc::heldout_cases();
+  for (const auto& info : sc::later_heldout_cases()) all.push_back(info);
+  return all;
+}
+
 TEST_CASE("held-out cases: the same seed gives the same CSV bytes and the probe reads again alike") {
-  for (const auto& info : sc::heldout_cases()) {
+  for (const auto& info : every_heldout_case()) {
     INFO("case " << info.name);
     const auto run = sc::simulate_case(info.name);
     CHECK(run.seed == info.default_seed);
@@ -167,8 +186,62 @@ TEST_CASE("held-out H5: most of the error comes from the unmeasured source") {
   CHECK(hidden > 1.5 * rest);
 }
 
+TEST_CASE("held-out H6: 120 s spacing with one 4-h gap, a drifting and a dead sensor, fluid, a small hidden source, "
+          "a slower machine") {
+  sc::LoadCaseSpec spec = sc::load_case_spec("H6");
+  const auto run = sc::simulate_load_case(spec, spec.info.default_seed);
+  const sc::Scenario& s = run.scenario;
+  REQUIRE(s.input_names == std::vector<std::string>{"T_ENV", "T_WS", "T_COOL", "T_CRD", "n_C", "CF_on"});
+  // Rows every 120 s but for the one gap of 70-74 h.
+  std::vector<double> gaps;
+  for (const double d : spacings(s))
+    if (d != 120.0) gaps.push_back(d);
+  CHECK(gaps == std::vector<double>{4.0 * kHour + 120.0});
+  // T_CRD dies at 110 h (constant from then on; it followed the cradle before).
+  const int crd = s.input_index("T_CRD");
+  Eigen::Index dead_from = 0;
+  while (s.time_s[static_cast<std::size_t>(dead_from)] < 110.0 * kHour) ++dead_from;
+  for (Eigen::Index r = dead_from; r < s.inputs.rows(); ++r) REQUIRE(s.inputs(r, crd) == s.inputs(dead_from - 1, crd));
+  const Eigen::VectorXd crd_error = s.inputs.col(crd).head(dead_from) - run.truth.nodes.col(sc::kCradle).head(dead_from);
+  CHECK(crd_error.cwiseAbs().maxCoeff() < 0.1);
+  // T_WS drifts -0.08 K/day against what it reads (0.7 workspace + 0.3 table): -0.5 K over 6.5 days.
+  const int ws = s.input_index("T_WS");
+  const Eigen::VectorXd offset =
+      s.inputs.col(ws) - 0.7 * run.truth.nodes.col(sc::kWorkspace) - 0.3 * run.truth.nodes.col(sc::kTable);
+  const Eigen::Index day = 720;  // samples
+  const double growth = offset.tail(day).mean() - offset.head(day).mean();
+  CHECK(growth < -0.45);
+  CHECK(growth > -0.60);
+  // The fluid runs part of the time.
+  const double fluid_share = s.inputs.col(s.input_index("CF_on")).mean();
+  CHECK(fluid_share > 0.1);
+  CHECK(fluid_share < 0.9);
+  // The hidden source adds a few per cent of the linear errors' variance (H5: more than the rest),
+  // several µm at its peak.
+  spec.variant.hidden.enabled = false;
+  const auto without = sc::simulate_load_case(spec, spec.info.default_seed);
+  CHECK(run.scenario.inputs == without.scenario.inputs);
+  double hidden = 0.0, rest = 0.0, peak = 0.0;
+  for (Eigen::Index e = 0; e < 4; ++e) {
+    const Eigen::VectorXd added = run.truth.errors.col(e) - without.truth.errors.col(e);
+    hidden += variance(added);
+    rest += variance(without.truth.errors.col(e));
+    peak = std::max(peak, added.cwiseAbs().maxCoeff());
+  }
+  INFO("variance from the hidden source " << hidden << " µm², from the rest " << rest << " µm², peak " << peak);
+  CHECK(hidden > 0.02 * rest);
+  CHECK(hidden < 0.2 * rest);
+  CHECK(peak > 2.0);
+  // A heavier machine: its slowest mode is slower than A's.
+  const sc::ThermalTwin h6(sc::load_case_spec("H6").twin);
+  const sc::ThermalTwin a(sc::load_case_spec("A").twin);
+  const Eigen::VectorXd tau_h6 = h6.network(false).time_constants_s();
+  const Eigen::VectorXd tau_a = a.network(false).time_constants_s();
+  CHECK(tau_h6(tau_h6.size() - 1) > 1.2 * tau_a(tau_a.size() - 1));
+}
+
 TEST_CASE("held-out cases: a replay with the default set ends with finite indicators") {
-  for (const auto& info : sc::heldout_cases()) {
+  for (const auto& info : every_heldout_case()) {
     INFO("case " << info.name);
     const auto run = sc::simulate_case(info.name);
     const alc::runtime::ReplayReport r = alc::runtime::replay(run.scenario, alc::AlcParameters{});
