@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Regenerates the Pareto fronts of docs/adaptive.md ("Judged on the Pareto front") in one command:
 # the paper-schedule and adaptive-schedule studies (docs/grids-{paper,adaptive}-schedule*.toml, every
-# file of a schedule) on every case (A-D, S16, H1-H5) at their own seeds and at the seeds in SEEDS
+# file of a schedule) on every case (A-D, S16, H1-H5; CASES) at their own seeds and at the seeds in SEEDS
 # (default "2 3"; SEEDS= empty: the own seeds only; recordings made with `alc simulate --case X --seed
 # S`), then the comparison tables, the runs whose case or an output is worse than uncompensated and one SVG
 # per seed.
 #
-# usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2 in the environment)
+# usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2, CASES="A B ..." in the environment)
+# CASES: the cases, default "A B C D S16 H1 H2 H3 H4 H5" (those of the tables in docs/adaptive.md); the
+# sets are chosen on A-D at their own seeds (--choose-on below), so keep A B C D in it. H6, built after
+# the policy was settled, is judged apart: CASES="A B C D H6" (docs/adaptive.md, "A case built after").
 # ALC defaults to build/release/cli/alc of this checkout, the build of scripts/main.sh (run that first;
 # this script builds nothing).
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg
@@ -21,7 +24,13 @@ fi
 out=$(realpath -m "${1:-$here/build/fronts}")  # absolute: the seed studies run inside its recordings/
 seeds=${SEEDS-2 3}  # set but empty: the own seeds only
 jobs=${JOBS:-2}
-cases="A B C D S16 H1 H2 H3 H4 H5"
+cases=${CASES:-A B C D S16 H1 H2 H3 H4 H5}
+for c in A B C D; do
+  if [[ " $cases " != *" $c "* ]]; then
+    echo "fronts.sh: CASES must include A, B, C and D (the sets are chosen on them), got '$cases'" >&2
+    exit 2
+  fi
+done
 start=$(date +%s)
 mkdir -p "$out/recordings"
 for s in $seeds; do
@@ -37,7 +46,7 @@ for g in paper adaptive; do
   # same keys in the same order, so their rows share one file; compare_fronts.py names a set by its values).
   for grid in "$here"/docs/grids-"$g"-schedule*.toml; do
     # The cases at their own seeds, then each other seed's recordings (the case column names the file).
-    for what in "--case all" "--case heldout" "--case S16" $(for s in $seeds; do echo "seed:$s"; done); do
+    for what in $(for c in $cases; do echo "case:$c"; done) $(for s in $seeds; do echo "seed:$s"; done); do
       part=$((part + 1))
       if [[ $what == seed:* ]]; then
         s=${what#seed:}
@@ -46,8 +55,7 @@ for g in paper adaptive; do
         (cd "$out/recordings" && "$alc" study --grid "$grid" --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" \
           "${files[@]##*/}" > /dev/null)
       else
-        # shellcheck disable=SC2086
-        "$alc" study --grid "$grid" $what --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
+        "$alc" study --grid "$grid" --case "${what#case:}" --jobs "$jobs" --quiet --csv "$out/$g.$part.csv" > /dev/null
       fi
       if [ ! -s "$out/$g.csv" ]; then
         cp "$out/$g.$part.csv" "$out/$g.csv"
