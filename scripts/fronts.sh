@@ -25,8 +25,22 @@ out=$(realpath -m "${1:-$here/build/fronts}")  # absolute: the seed studies run 
 seeds=${SEEDS-2 3}  # set but empty: the own seeds only
 jobs=${JOBS:-2}
 cases=${CASES:-A B C D S16 H1 H2 H3 H4 H5}
+# Checked before any study runs: built-in case names (`alc simulate --list`), each once, A-D among them.
+known=$("$alc" simulate --list | awk '/^[A-Z][A-Z0-9]* /{print $1}')
+seen=" "
+for c in $cases; do
+  if ! grep -qx -- "$c" <<< "$known"; then
+    echo "fronts.sh: CASES: '$c' is not a built-in case (alc simulate --list; no groups such as all or heldout)" >&2
+    exit 2
+  fi
+  if [[ $seen == *" $c "* ]]; then
+    echo "fronts.sh: CASES: '$c' is given twice" >&2
+    exit 2
+  fi
+  seen="$seen$c "
+done
 for c in A B C D; do
-  if [[ " $cases " != *" $c "* ]]; then
+  if [[ $seen != *" $c "* ]]; then
     echo "fronts.sh: CASES must include A, B, C and D (the sets are chosen on them), got '$cases'" >&2
     exit 2
   fi
@@ -76,4 +90,4 @@ done
 # "Judged on the Pareto front" and "What remains").
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
   --svg "$out/fronts" --choose-on "A-D, own seeds" --worse-by move-fraction | tee "$out/fronts.md"
-echo "fronts.sh: $(( $(date +%s) - start )) s (seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"
+echo "fronts.sh: $(( $(date +%s) - start )) s (cases: $cases; seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"
