@@ -39,8 +39,7 @@ std::string fixed(double value, int decimals) {
 
 std::string case_names() {
   std::string names;
-  for (const auto* list : {&sc::load_cases(), &sc::recording_cases(), &sc::heldout_cases(), &sc::later_heldout_cases()})
-    for (const auto& c : *list) names += (names.empty() ? "" : ", ") + c.name;
+  for (const auto& c : sc::all_cases()) names += (names.empty() ? "" : ", ") + c.name;
   return names + ", all (= A-D) or heldout (= H1-H5)";
 }
 

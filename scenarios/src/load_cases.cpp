@@ -415,10 +415,19 @@ const std::vector<LoadCaseInfo>& recording_cases() { return recording_list(); }
 const std::vector<LoadCaseInfo>& heldout_cases() { return heldout_list(); }
 const std::vector<LoadCaseInfo>& later_heldout_cases() { return later_heldout_list(); }
 
+const std::vector<LoadCaseInfo>& all_cases() {
+  static const std::vector<LoadCaseInfo> all = [] {
+    std::vector<LoadCaseInfo> cases;
+    for (const auto* list : {&case_list(), &recording_list(), &heldout_list(), &later_heldout_list()})
+      cases.insert(cases.end(), list->begin(), list->end());
+    return cases;
+  }();
+  return all;
+}
+
 std::optional<LoadCaseInfo> find_case(std::string_view name) {
-  for (const auto* list : {&case_list(), &recording_list(), &heldout_list(), &later_heldout_list()})
-    for (const LoadCaseInfo& c : *list)
-      if (c.name == name) return c;
+  for (const LoadCaseInfo& c : all_cases())
+    if (c.name == name) return c;
   return std::nullopt;
 }
 

@@ -39,6 +39,8 @@ const std::vector<LoadCaseInfo>& heldout_cases();
 // Held-out variants built after the adaptive policy and its grids were settled (H6; docs/twin.md):
 // by name only, in no group, so that every figure of H1–H5 stays as it was.
 const std::vector<LoadCaseInfo>& later_heldout_cases();
+// Every built-in case: the lists above, in that order.
+const std::vector<LoadCaseInfo>& all_cases();
 // A case of any list by name, or nullopt.
 std::optional<LoadCaseInfo> find_case(std::string_view name);
 
