@@ -230,6 +230,7 @@ probing::ScheduleContext Controller::schedule_context(double time_s) const {
   c.acl.resize(static_cast<Eigen::Index>(output_names_.size()));
   for (std::size_t i = 0; i < output_names_.size(); ++i) c.acl(static_cast<Eigen::Index>(i)) = acl_of(i);
   c.output_names = &output_names_;
+  c.first_check = state_.first_check_due && state_.phase == Phase::PostCalibration;
   return c;
 }
 
@@ -345,9 +346,6 @@ constexpr double kGuardDecay = 0.95;
 constexpr int kGuardMinProbes = 12;
 constexpr double kGuardStep = 0.1;
 constexpr double kRangeMargin = 1.0;
-// The first check of a model fitted on a burst of probes (CP, NG): the first Post-CP probe after it
-// comes after this fraction of the Post-CP interval (docs/adaptive.md, "The first check").
-constexpr double kFirstCheckFraction = 0.5;
 // The drift bound: compensation stays within the latest probe's thermal error +- kDriftFactor x the
 // fastest rate of change measured between two probes at least kDriftSpan apart x the time since it.
 // Over a span s a sinusoidal error's change is sinc(pi s / period) of its fastest rate: with 2 x and
@@ -645,13 +643,15 @@ void Controller::enter(Phase to, double time_s, ControllerOutput& out, const std
   change_phase(to, time_s, out, reason);
   // The guard's first check: a model fitted on a burst of probes (the CP's, an NG burst's) explains
   // every one of them in-sample, and how it predicts beyond the burst no probe has judged yet; under a
-  // fixed interval the next probe comes at half of it (announced alone: the NC reads every interval).
-  // A schedule that asks the model's uncertainty at every sample (adaptive) decides its own first
-  // interval; the paper's literal loop (no refit on a probe within the ACL) keeps seed 004's schedule.
-  const double first_s = kFirstCheckFraction * params_.post_cp_interval_s;
-  if (burst_model && params_.guard && params_.refit_on_probe && to == Phase::PostCalibration &&
-      std::isfinite(params_.post_cp_interval_s) && !schedule_->checks_each_sample() &&
-      first_s < schedule_->interval(to)) {
+  // fixed interval the next probe comes at half of it (announced alone: the NC reads every interval), a
+  // schedule that asks the model's uncertainty at every sample (adaptive) takes it at half the interval
+  // it would choose (ScheduleContext::first_check). The paper's literal loop (no refit on a probe within
+  // the ACL) keeps seed 004's schedule; no probes after CP (an interval of inf) stays none.
+  const bool first_check = burst_model && params_.guard && params_.refit_on_probe && to == Phase::PostCalibration &&
+                           std::isfinite(params_.post_cp_interval_s);
+  const double first_s = probing::kFirstCheckFraction * params_.post_cp_interval_s;
+  if (first_check && schedule_->checks_each_sample()) state_.first_check_due = true;
+  if (first_check && !schedule_->checks_each_sample() && first_s < schedule_->interval(to)) {
     set_interval(first_s, time_s, out,
                  "the guard's first check of the model after the " +
                      std::string(reason.rfind("calibration", 0) == 0 ? "CP" : "NG") +

@@ -76,7 +76,9 @@ std::pair<double, int> AdaptiveSchedule::post_cp_interval(const ScheduleContext&
     }
   }
   if (!evidence) return {paper, -1};
-  return {std::clamp(best, adaptive_.min_interval_s, adaptive_.max_interval_s), which};
+  const double dt = std::clamp(best, adaptive_.min_interval_s, adaptive_.max_interval_s);
+  // The guard's first check of a model fitted on a burst: half the interval, not below the minimum.
+  return {ctx.first_check ? std::max(adaptive_.min_interval_s, kFirstCheckFraction * dt) : dt, which};
 }
 
 double AdaptiveSchedule::next_due(const ScheduleContext& ctx) const {
@@ -90,7 +92,7 @@ std::string AdaptiveSchedule::explain(const ScheduleContext& ctx) const {
   const double from = since(ctx);
   const double elapsed = ctx.now_s - from;
   const bool now = elapsed > 0.0;  // asked at a sample after the decision: the probe is due now
-  char text[384];
+  char text[512];
   if (which < 0) {
     std::snprintf(text, sizeof text, "adaptive: next probe in %.2f h (no drift evidence yet: the Post-CP interval)",
                   dt / 3600.0);
@@ -103,7 +105,9 @@ std::string AdaptiveSchedule::explain(const ScheduleContext& ctx) const {
   const double noise = entry(ctx.noise_var, i);
   const double dy = entry(ctx.prediction_change, i);
   const double moved = entry(ctx.kappa, i) * dy * dy;
-  const char* bound = dt <= adaptive_.min_interval_s ? " (the minimum interval)"
+  const char* bound = ctx.first_check ? " (the guard's first check of the model after a burst of probes: half the "
+                                       "interval, at least the minimum)"
+                      : dt <= adaptive_.min_interval_s ? " (the minimum interval)"
                       : dt >= adaptive_.max_interval_s ? " (the maximum interval)" : "";
   if (now) {
     std::snprintf(text, sizeof text,

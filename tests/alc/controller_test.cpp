@@ -128,6 +128,21 @@ struct Driver {
   }
 };
 
+// Without the guard, and in the paper's literal loop (no refit on a probe within the ACL), `p`'s first
+// Post-CP probe comes one Post-CP interval (1 h) after CP (2 h), and no interval names the first check.
+void check_no_first_check(const AlcParameters& p) {
+  AlcParameters unguarded = p, literal = p;
+  unguarded.guard = false;
+  literal.refit_on_probe = false;
+  for (const AlcParameters& q : {unguarded, literal}) {
+    Driver off(q);
+    off.run_until(2 * kHour + kMinute);
+    CHECK(off.controller.state().next_probe_due_s == 3 * kHour);
+    for (const auto& e : off.of_type(ControllerEvent::Type::ProbeIntervalChange))
+      CHECK(e.reason.find("first check") == std::string::npos);
+  }
+}
+
 // The guard's level of output i as docs/adaptive.md defines it: the decaying sum over the Post-CP probes
 // within the ACL of the error the gain-scaled prediction left, over its weights plus one (0: none yet).
 double level_of(const ControllerState& s, Eigen::Index i) {
@@ -173,20 +188,74 @@ TEST_CASE("controller: the guard's first check takes the first probe after CP an
   REQUIRE(after.size() >= 2);
   CHECK(after[0] == 30 * kMinute);
   CHECK(after[1] == 1 * kHour);
-  // Seed 004's schedule, the first Post-CP probe one interval after CP: without the guard, in the
-  // paper's literal loop (no refit on a probe within the ACL), and under the adaptive schedule, which
-  // decides its first interval itself (the paper's, then the evidence).
-  AlcParameters unguarded = p, literal = p, adaptive = adaptive_parameters(0.25, 4);
-  unguarded.guard = false;
-  literal.refit_on_probe = false;
-  adaptive.refit_on_probe = true;
-  for (const AlcParameters& q : {unguarded, literal, adaptive}) {
-    Driver off(q);
-    off.run_until(2 * kHour + kMinute);
-    CHECK(off.controller.state().next_probe_due_s == 3 * kHour);
-    for (const auto& e : off.of_type(ControllerEvent::Type::ProbeIntervalChange))
-      CHECK(e.reason.find("first check") == std::string::npos);
-  }
+  // Seed 004's schedule, the first Post-CP probe one interval after CP: without the guard and in the
+  // paper's literal loop (no refit on a probe within the ACL). The adaptive schedule has its own test.
+  check_no_first_check(p);
+}
+
+TEST_CASE("controller: under the adaptive schedule the guard's first check comes at half the interval the policy would choose, and judges the model") {
+  AlcParameters p = adaptive_parameters(0.25, 4);
+  p.refit_on_probe = true;  // with the guard (default)
+  const auto first_checks = [](const Driver& d, double from_s) {
+    std::vector<ControllerEvent> r;
+    for (const auto& e : d.of_type(ControllerEvent::Type::ProbeIntervalChange))
+      if (e.time_s >= from_s && e.reason.find("first check") != std::string::npos) r.push_back(e);
+    return r;
+  };
+  // CP ends at 2 h; the policy's first interval is the Post-CP interval (1 h, before any probe has told),
+  // the first check takes half of it.
+  Driver d(p);
+  d.run_until(2 * kHour + kMinute);
+  REQUIRE(d.controller.phase() == Phase::PostCalibration);
+  CHECK(d.controller.state().first_check_due);
+  CHECK(d.controller.state().next_probe_due_s == 2 * kHour + 30 * kMinute);
+  auto checks = first_checks(d, 0.0);
+  REQUIRE(checks.size() == 1);
+  CHECK(checks[0].time_s == 2 * kHour);
+  CHECK(checks[0].interval_s == 30 * kMinute);
+  CHECK_THAT(checks[0].reason, Catch::Matchers::StartsWith("adaptive: next probe in 0.50 h (the guard's first check"));
+  // A state saved before the check continues bit for bit: the check is due in the state, not in the policy.
+  Driver resumed(p, d.controller.state(), d);
+  // At the check E_X0C is a third of what the model learnt: its compensation leaves about twice the error
+  // that none would, and compensation holds the probe's error (as under the paper schedule).
+  const auto third = [](Driver& x) { return [&x](double) { x.plant.offset_x = -2.0 * x.plant.lag; }; };
+  d.run_until(2 * kHour + 31 * kMinute, third(d));
+  resumed.run_until(2 * kHour + 31 * kMinute, third(resumed));
+  std::vector<ControllerEvent> holds;
+  for (const auto& e : d.of_type(ControllerEvent::Type::Guard))
+    if (e.reason.rfind("compensation holds the latest probe's error", 0) == 0) holds.push_back(e);
+  REQUIRE(holds.size() == 1);
+  CHECK(holds[0].output == "E_X0C");
+  CHECK(holds[0].time_s == 2 * kHour + 30 * kMinute);
+  CHECK_FALSE(d.controller.state().first_check_due);
+  CHECK(d.controller.state().guard_check_hold(0) == holds[0].limit);
+  std::size_t from = 0;
+  for (std::size_t i = 0; i < d.events.size(); ++i)
+    if (d.events[i].time_s >= 2 * kHour + kMinute) {
+      from = i;
+      break;
+    }
+  REQUIRE(resumed.events.size() == d.events.size() - from);
+  for (std::size_t i = 0; i < resumed.events.size(); ++i) CHECK(resumed.events[i].reason == d.events[from + i].reason);
+  // After the check the policy's own interval again, not halved.
+  const auto intervals = d.of_type(ControllerEvent::Type::ProbeIntervalChange);
+  REQUIRE(intervals.back().time_s == 2 * kHour + 30 * kMinute);
+  CHECK(intervals.back().reason.find("first check") == std::string::npos);
+  CHECK(d.controller.state().next_probe_due_s - d.t > 30 * kMinute);
+  // An NG update is a model fitted on a burst too: after it the first check again.
+  Driver ng(p);
+  ng.run_until(3 * kHour);
+  ng.plant.offset_x = 12.0;  // a step the model cannot know: the next probe breaches
+  ng.run_until(8 * kHour);
+  double ng_end = -1.0;
+  for (const auto& e : ng.of_type(ControllerEvent::Type::PhaseChange))
+    if (e.from == Phase::NoGood && e.to == Phase::PostCalibration) ng_end = e.time_s;
+  REQUIRE(ng_end > 3 * kHour);
+  checks = first_checks(ng, ng_end);
+  REQUIRE_FALSE(checks.empty());
+  CHECK(checks[0].time_s == ng_end);
+  // No first check without the guard, nor in the paper's literal loop: the policy's interval alone.
+  check_no_first_check(p);
 }
 
 TEST_CASE("controller: a model that does worse than none at the guard's first check holds the latest probe's error until the next probe") {

@@ -36,6 +36,9 @@ inline constexpr double kNever = std::numeric_limits<double>::infinity();
 inline constexpr double kDueTolerance_s = 1e-3;
 // Whether a sample or measurement at `time_s` is at or after `due_s` (within kDueTolerance_s).
 inline bool reached(double time_s, double due_s) { return time_s >= due_s - kDueTolerance_s; }
+// The guard's first check of a model fitted on a burst of probes (CP, NG): the first Post-CP probe after
+// it comes after this fraction of the interval the schedule would give (docs/adaptive.md, "The first check").
+inline constexpr double kFirstCheckFraction = 0.5;
 
 // What a policy sees when it decides (all times in seconds, scenario or machine clock).
 struct ScheduleContext {
@@ -53,6 +56,9 @@ struct ScheduleContext {
   Eigen::VectorXd acl;             // [µm] or [µm/m]
   double since_s = -kNever;        // [s] the Post-CP decision (a probe) the uncertainty grows from (-inf: now_s)
   Eigen::VectorXd prediction_change;  // [unit] the model's prediction now minus at since_s (empty: 0)
+  // The next probe is the guard's first check of a model fitted on a burst of probes (CP, NG): a policy
+  // that decides its own intervals takes it at half the one it would choose (docs/adaptive.md).
+  bool first_check = false;
   const std::vector<std::string>* output_names = nullptr;  // for reasons
 };
 
