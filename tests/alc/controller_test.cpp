@@ -128,6 +128,14 @@ struct Driver {
   }
 };
 
+// The guard events among `events` whose reason starts with `start`.
+std::vector<ControllerEvent> holds_of(const std::vector<ControllerEvent>& events, const char* start) {
+  std::vector<ControllerEvent> r;
+  for (const auto& e : events)
+    if (e.type == ControllerEvent::Type::Guard && e.reason.rfind(start, 0) == 0) r.push_back(e);
+  return r;
+}
+
 // Without the guard, and in the paper's literal loop (no refit on a probe within the ACL), `p`'s first
 // Post-CP probe comes one Post-CP interval (1 h) after CP (2 h), and no interval names the first check.
 void check_no_first_check(const AlcParameters& p) {
@@ -221,9 +229,7 @@ TEST_CASE("controller: under the adaptive schedule the guard's first check comes
   const auto third = [](Driver& x) { return [&x](double) { x.plant.offset_x = -2.0 * x.plant.lag; }; };
   d.run_until(2 * kHour + 31 * kMinute, third(d));
   resumed.run_until(2 * kHour + 31 * kMinute, third(resumed));
-  std::vector<ControllerEvent> holds;
-  for (const auto& e : d.of_type(ControllerEvent::Type::Guard))
-    if (e.reason.rfind("compensation holds the latest probe's error", 0) == 0) holds.push_back(e);
+  const auto holds = holds_of(d.events, "compensation holds the latest probe's error");
   REQUIRE(holds.size() == 1);
   CHECK(holds[0].output == "E_X0C");
   CHECK(holds[0].time_s == 2 * kHour + 30 * kMinute);
@@ -269,12 +275,6 @@ TEST_CASE("controller: a model that does worse than none at the guard's first ch
   // leaves twice the error that none would (within the ACL, no breach); E_A0C stays as learnt.
   const auto third = [&d](double) { d.plant.offset_x = -2.0 * d.plant.lag; };
   d.run_until(2 * kHour + 31 * kMinute, third);
-  const auto holds_of = [](const std::vector<ControllerEvent>& events, const char* start) {
-    std::vector<ControllerEvent> r;
-    for (const auto& e : events)
-      if (e.type == ControllerEvent::Type::Guard && e.reason.rfind(start, 0) == 0) r.push_back(e);
-    return r;
-  };
   const auto holds = holds_of(d.events, "compensation holds the latest probe's error");
   REQUIRE(holds.size() == 1);
   CHECK(holds[0].output == "E_X0C");
