@@ -186,7 +186,7 @@ void add_bench_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "bench", "Benchmark: replay time per load case, the share spent in identification, and replay with "
                "the history database against replay without it (ratio), all in one invocation.");
-  cmd->add_option("--case", args->case_name, "A, B, C, D, S16, H1-H6, all (A-D) or heldout (H1-H5)")->capture_default_str();
+  cmd->add_option("--case", args->case_name, "A, B, C, D, S16, H1-H7, all (A-D) or heldout (H1-H5)")->capture_default_str();
   add_whole_option(cmd, "--repeat", args->repeat, "Runs per measurement; the best is reported", 1, 1000000);
   add_number_option(cmd, "--long", args->long_days,
                   "Long-run benchmark instead: case A (or --case B|C|D) stretched to DAYS days, recorded into a "

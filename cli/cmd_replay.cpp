@@ -592,7 +592,7 @@ void add_replay_command(CLI::App& app) {
                 "of seed 004 (PV, RMSE, P99, SMAPE per error; Pd, M, NG phases, updates) beside a static MLR "
                 "baseline fitted once on the CP measurements. Defaults: the paper's chosen set (Tab. 3).");
   cmd->add_option("file", args->file, "Scenario CSV to replay (see README, 'Scenario CSV')");
-  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, H1-H6, all (A–D with a Tab. 3 summary) or heldout (H1-H5, the same summary)");
+  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, H1-H7, all (A–D with a Tab. 3 summary) or heldout (H1-H5, the same summary)");
   cmd->add_option_function<std::string>(
       "--seed", [args](const std::string& s) { args->seed = parse_seed(s); args->seed_given = true; },
       "Seed of the built-in load case, 0 to 2^64-1 (default: the case's own seed)")

@@ -149,7 +149,7 @@ void add_simulate_command(CLI::App& app) {
       "sample and probe measurements of the errors (empty cells between probes). See docs/twin.md.");
   cmd->add_option("--case", args->case_name,
                   "Case to simulate: A, B, C, D (C-axis load cases, 8 days at 1 min), S16 (recording-like spindle run), "
-                  "H1-H6 (held-out variants of the C-axis twin), all (A-D) or heldout (H1-H5), the last two with --summary");
+                  "H1-H7 (held-out variants of the C-axis twin), all (A-D) or heldout (H1-H5), the last two with --summary");
   cmd->add_option("--out", args->out, "Write the scenario CSV (what sensors and the probe gave) to this file");
   cmd->add_option("--truth", args->truth,
                   "Also write the noiseless truth (loads, node temperatures, true errors at every sample) as CSV");

@@ -526,7 +526,7 @@ void add_study_command(CLI::App& app) {
                "case, equal to alc replay with those parameters), the Eq. 8 optimum per case, the best set on every "
                "case and the Pareto front of P99 against Pd (docs/study.md).");
   cmd->add_option("--grid", args->grid, "paper (Tab. 1 of seed 004: 2,191 sets) or a TOML grid file");
-  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, H1-H6, all (A-D) or heldout (H1-H5)");
+  cmd->add_option("--case", args->case_name, "Built-in load case: A, B, C, D, S16, H1-H7, all (A-D) or heldout (H1-H5)");
   cmd->add_option("files", args->files, "Scenario CSV files (instead of --case)");
   add_whole_option(cmd, "--jobs", args->jobs, "Worker threads (default 0: every core)", 0, 4096);
   cmd->add_option("--db", args->db, "Store the rows in this SQLite file as they finish (needed for --resume)");

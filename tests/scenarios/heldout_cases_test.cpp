@@ -1,4 +1,4 @@
-// Held-out cases H1-H6: determinism for their seeds, the physics each claims (against the same
+// Held-out cases H1-H7: determinism for their seeds, the physics each claims (against the same
 // case and seed with that physics switched off), and a replay with the default set that finishes
 // with finite indicators.
 #include <catch2/catch.hpp>
@@ -58,15 +58,20 @@ TEST_CASE("held-out cases: H1-H5 are listed apart from A-D with their sampling")
   CHECK(sc::load_case_spec("A").variant.sensors.empty());
 }
 
-TEST_CASE("held-out H6 is listed by name only, apart from H1-H5") {
+TEST_CASE("held-out H6 and H7 are listed by name only, apart from H1-H5") {
   const auto& later = sc::later_heldout_cases();
-  REQUIRE(later.size() == 1);
-  CHECK(later[0].name == "H6");
-  CHECK(later[0].step_s == 120.0);
-  CHECK(later[0].default_seed == 206);
-  CHECK(sc::find_case("H6").has_value());
-  CHECK(sc::load_case_spec("H6").info.name == "H6");
-  for (const auto& info : sc::heldout_cases()) CHECK(info.name != "H6");
+  REQUIRE(later.size() == 2);
+  const std::vector<std::string> names = {"H6", "H7"};
+  const std::vector<double> steps = {120.0, 60.0};
+  const std::vector<std::uint64_t> seeds = {206, 207};
+  for (std::size_t i = 0; i < later.size(); ++i) {
+    CHECK(later[i].name == names[i]);
+    CHECK(later[i].step_s == steps[i]);
+    CHECK(later[i].default_seed == seeds[i]);
+    CHECK(sc::find_case(names[i]).has_value());
+    CHECK(sc::load_case_spec(names[i]).info.name == names[i]);
+    for (const auto& info : sc::heldout_cases()) CHECK(info.name != names[i]);
+  }
 }
 
 // Every held-out case: H1-H5 and those built later.
@@ -239,6 +244,64 @@ TEST_CASE("held-out H6: 120 s spacing with one 4-h gap, a drifting and a dead se
   const Eigen::VectorXd tau_h6 = h6.network(false).time_constants_s();
   const Eigen::VectorXd tau_a = a.network(false).time_constants_s();
   CHECK(tau_h6(tau_h6.size() - 1) > 1.2 * tau_a(tau_a.size() - 1));
+}
+
+TEST_CASE("held-out H7: re-levelled at 60 h with the bed's gains 0.6x, creep, a drifting column sensor, a 1-h gap, "
+          "time constants spread wider than A's") {
+  sc::LoadCaseSpec spec = sc::load_case_spec("H7");
+  const auto run = sc::simulate_load_case(spec, spec.info.default_seed);
+  const sc::Scenario& s = run.scenario;
+  REQUIRE(s.input_names == std::vector<std::string>{"T_ENV", "T_WS", "T_COOL", "T_COL", "n_C"});
+  // Rows every 60 s but for the gap of 90-91 h.
+  std::vector<double> gaps;
+  for (const double d : spacings(s))
+    if (d != 60.0) gaps.push_back(d);
+  CHECK(gaps == std::vector<double>{1.0 * kHour + 60.0});
+  // T_COL drifts +0.12 K/day against the column: the mean offset of the last day is 4 days after
+  // that of the first, +0.48 K.
+  const Eigen::VectorXd offset = s.inputs.col(s.input_index("T_COL")) - run.truth.nodes.col(sc::kColumn);
+  const Eigen::Index day = 1440;  // samples
+  const double growth = offset.tail(day).mean() - offset.head(day).mean();
+  CHECK(growth > 0.40);
+  CHECK(growth < 0.56);
+  // The repair: nothing changes before 60 h. From then on the errors jump by the move's offset (a run
+  // with the jump alone differs from the unrepaired one by exactly that), and the bed deforms the axis
+  // less on its new supports (the full repair differs from the jump alone wherever the bed's gain is).
+  sc::LoadCaseSpec unrepaired = spec;
+  unrepaired.variant.move_at_h = std::numeric_limits<double>::infinity();
+  const auto still = sc::simulate_load_case(unrepaired, spec.info.default_seed);
+  CHECK(still.scenario.inputs == s.inputs);
+  sc::LoadCaseSpec jump_only = spec;
+  jump_only.variant.move_bed_gain_factor = 1.0;
+  const auto jumped = sc::simulate_load_case(jump_only, spec.info.default_seed);
+  Eigen::Index at = 0;
+  while (s.time_s[static_cast<std::size_t>(at)] < 60.0 * kHour) ++at;
+  const Eigen::MatrixXd change = run.truth.errors - still.truth.errors;
+  CHECK(change.topRows(at).cwiseAbs().maxCoeff() == 0.0);
+  const Eigen::Index after = change.rows() - at;
+  for (Eigen::Index e = 0; e < change.cols(); ++e) {
+    INFO("error " << e);
+    const Eigen::VectorXd jump = (jumped.truth.errors - still.truth.errors).col(e).tail(after);
+    CHECK((jump.array() - spec.variant.move_offset[static_cast<std::size_t>(e)]).abs().maxCoeff() < kRoundOff);
+    const Eigen::VectorXd gain_part = (run.truth.errors - jumped.truth.errors).col(e).tail(after);
+    CHECK(gain_part.cwiseAbs().maxCoeff() > 0.1);
+  }
+  // Creep with the sign of its amplitude, monotone: 1 - exp(-120/200) = 0.45 of it at the end.
+  sc::LoadCaseSpec no_creep = spec;
+  no_creep.variant.creep = {};
+  const Eigen::MatrixXd trend = run.truth.errors - sc::simulate_load_case(no_creep, spec.info.default_seed).truth.errors;
+  for (Eigen::Index e = 0; e < trend.cols(); ++e) {
+    INFO("error " << e);
+    const double c = spec.variant.creep[static_cast<std::size_t>(e)];
+    const double sign = c > 0 ? 1.0 : -1.0;
+    for (Eigen::Index r = 1; r < trend.rows(); ++r) REQUIRE(sign * (trend(r, e) - trend(r - 1, e)) >= -kRoundOff);
+    CHECK(sign * trend(trend.rows() - 1, e) > 0.40 * std::abs(c));
+  }
+  // Time constants spread wider than A's: the fastest mode faster, the slowest slower.
+  const Eigen::VectorXd tau_h7 = sc::ThermalTwin(spec.twin).network(false).time_constants_s();
+  const Eigen::VectorXd tau_a = sc::ThermalTwin(sc::load_case_spec("A").twin).network(false).time_constants_s();
+  CHECK(tau_h7(0) < tau_a(0));
+  CHECK(tau_h7(tau_h7.size() - 1) > tau_a(tau_a.size() - 1));
 }
 
 TEST_CASE("held-out cases: a replay with the default set ends with finite indicators") {

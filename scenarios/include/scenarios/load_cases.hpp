@@ -4,7 +4,7 @@
 //
 // A–D: the C-axis twin (thermal_twin.hpp), 8 days at 1-minute sampling, in the spirit of the
 // ALC paper's load cases (seed 004, §3). S16: a recording-like spindle scenario (spindle_twin.hpp)
-// with sixteen temperatures at 15 s and sparse measurements. H1–H6: held-out variants of the C-axis
+// with sixteen temperatures at 15 s and sparse measurements. H1–H7: held-out variants of the C-axis
 // twin whose physics differ from A–D (other machine, sensor faults, sampling, a move, creep, gaps,
 // an unmeasured heat source), for reporting on cases the defaults were not tuned on. docs/twin.md
 // has the figures.
@@ -36,7 +36,7 @@ const std::vector<LoadCaseInfo>& load_cases();
 const std::vector<LoadCaseInfo>& recording_cases();
 // The held-out variants H1–H5 of the C-axis twin (docs/twin.md, "Held-out cases").
 const std::vector<LoadCaseInfo>& heldout_cases();
-// Held-out variants built after the adaptive policy and its grids were settled (H6; docs/twin.md):
+// Held-out variants built after the adaptive policy and its grids were settled (H6, H7; docs/twin.md):
 // by name only, in no group, so that every figure of H1–H5 stays as it was.
 const std::vector<LoadCaseInfo>& later_heldout_cases();
 // Every built-in case: the lists above, in that order.
@@ -146,7 +146,7 @@ struct VariantSpec {
   std::vector<std::pair<double, double>> gaps_h;
 };
 
-// Everything that defines one of the cases A–D and H1–H6.
+// Everything that defines one of the cases A–D and H1–H7.
 struct LoadCaseSpec {
   LoadCaseInfo info;
   AmbientParams ambient;
@@ -160,7 +160,7 @@ struct LoadCaseSpec {
   VariantSpec variant;     // held-out cases only
 };
 
-// The specification of case A–D or H1–H6; throws std::invalid_argument for another name.
+// The specification of case A–D or H1–H7; throws std::invalid_argument for another name.
 LoadCaseSpec load_case_spec(std::string_view name);
 
 // What happened to the machine, sample by sample (before any sensor saw it).
@@ -196,9 +196,9 @@ probing::TwinProbe make_probe(const SimulatedCase& run, std::uint64_t probe_seed
 // inputs and names, other measurements. reprobe(run, run.probe_seed) gives run.scenario.
 Scenario reprobe(const SimulatedCase& run, std::uint64_t probe_seed);
 
-// Simulates case A–D or H1–H6 from its spec.
+// Simulates case A–D or H1–H7 from its spec.
 SimulatedCase simulate_load_case(const LoadCaseSpec& spec, std::uint64_t seed);
-// Simulates any built-in case (A–D, S16, H1–H6) by name, with its default seed unless one is given.
+// Simulates any built-in case (A–D, S16, H1–H7) by name, with its default seed unless one is given.
 // Throws std::invalid_argument for an unknown name.
 SimulatedCase simulate_case(std::string_view name, std::optional<std::uint64_t> seed = std::nullopt);
 
