@@ -9,7 +9,8 @@
 # usage: scripts/fronts.sh [OUT_DIR]      (ALC=path/to/alc, SEEDS="2 3", JOBS=2, CASES="A B ..." in the environment)
 # CASES: the cases, default "A B C D S16 H1 H2 H3 H4 H5" (those of the tables in docs/adaptive.md); the
 # sets are chosen on A-D at their own seeds (--choose-on below), so keep A B C D in it. H6 and H7, built
-# after the policy was settled, are judged apart: CASES="A B C D H6 H7" (docs/adaptive.md, "A case built after").
+# after the policy was settled, are judged each apart: CASES="A B C D H6", CASES="A B C D H7" (docs/adaptive.md,
+# "A case built after", "A second case built after").
 # ALC defaults to build/release/cli/alc of this checkout, the build of scripts/main.sh (run that first;
 # this script builds nothing).
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg

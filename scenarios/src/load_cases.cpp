@@ -163,7 +163,8 @@ const std::vector<LoadCaseInfo>& heldout_list() {
 }
 
 // Held-out cases built after the adaptive policy and its grids were settled (2026-12-07), so that
-// no choice was made while looking at them: judged once (docs/adaptive.md, "A case built after").
+// no choice was made while looking at them: each judged once (docs/adaptive.md, "A case built after",
+// "A second case built after").
 const std::vector<LoadCaseInfo>& later_heldout_list() {
   static const std::vector<LoadCaseInfo> cases = {
       {"H6", 168.0, 120.0,

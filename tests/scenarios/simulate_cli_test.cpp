@@ -99,7 +99,7 @@ TEST_CASE("alc simulate: --case heldout --summary prints the figures of H1-H5 an
   for (const std::string name : {"H1  144 h  every 60 s", "H2  192 h  every 300 s", "H3  48 h  every 10 s"})
     CHECK_THAT(list.out, Catch::Matchers::Contains(name));
   CHECK(run_alc("simulate --case heldout --out x.csv").exit_code == 2);
-  // H6 and H7, built later, are listed apart and is not in the heldout group (H1-H5's figures stay as they were).
+  // H6 and H7, built later, are listed apart and are not in the heldout group (H1-H5's figures stay as they were).
   CHECK_THAT(list.out, Catch::Matchers::Contains("built after the adaptive policy was settled (by name only):\nH6  168 h  every 120 s"));
   CHECK_THAT(r.out, !Catch::Matchers::Contains("| H6 |"));
   CHECK_THAT(list.out, Catch::Matchers::Contains("\nH7  120 h  every 60 s"));
