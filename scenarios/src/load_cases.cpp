@@ -346,8 +346,8 @@ void held_out_spec(std::string_view name, LoadCaseSpec& spec) {
     spec.production.speed_min_rpm = 600.0;
     spec.production.speed_max_rpm = 2000.0;
     spec.production.working_days = 6;
-    v.sensors = {on_nodes("T_ENV", {}, 1.0), on_nodes("T_WS", {{kWorkspace, 1.0}}), on_nodes("T_COOL", {{kCoolant, 1.0}}),
-                 on_nodes("T_COL", {{kColumn, 1.0}})};
+    v.sensors = default_sensors();
+    v.sensors.push_back(on_nodes("T_COL", {{kColumn, 1.0}}));
     v.sensors[3].drift_K_per_day = 0.12;
     v.move_at_h = 60.0;
     v.move_offset = {-3.0, 2.0, -4.0, 1.0, -6.0, 4.0, -3.0};

@@ -37,6 +37,26 @@ std::vector<double> spacings(const sc::Scenario& s) {
 
 double variance(const Eigen::VectorXd& v) { return (v.array() - v.mean()).square().mean(); }
 
+// The row spacings [s] of a run other than its sampling step: one per gap in the data.
+std::vector<double> gaps_of(const sc::Scenario& s, double step_s) {
+  std::vector<double> gaps;
+  for (const double d : spacings(s))
+    if (d != step_s) gaps.push_back(d);
+  return gaps;
+}
+
+// Creep in the truth (the run minus the same run without creep): monotone with the sign of its
+// amplitude on every error, and at the end more than `min_share` of that amplitude.
+void check_creep(const Eigen::MatrixXd& trend, const std::array<double, 7>& creep, double min_share) {
+  for (Eigen::Index e = 0; e < trend.cols(); ++e) {
+    INFO("error " << e);
+    const double c = creep[static_cast<std::size_t>(e)];
+    const double sign = c > 0 ? 1.0 : -1.0;
+    for (Eigen::Index r = 1; r < trend.rows(); ++r) REQUIRE(sign * (trend(r, e) - trend(r - 1, e)) >= -kRoundOff);
+    CHECK(sign * trend(trend.rows() - 1, e) > min_share * std::abs(c));
+  }
+}
+
 }  // namespace
 
 TEST_CASE("held-out cases: H1-H5 are listed apart from A-D with their sampling") {
@@ -151,10 +171,7 @@ TEST_CASE("held-out H4: gaps in the data, a monotone creep in the truth and stro
   sc::LoadCaseSpec spec = sc::load_case_spec("H4");
   const auto run = sc::simulate_load_case(spec, spec.info.default_seed);
   // Three gaps (6 h, 0.5 h, 12 h) and no row inside one.
-  std::vector<double> gaps;
-  for (const double d : spacings(run.scenario))
-    if (d != 60.0) gaps.push_back(d);
-  CHECK(gaps == std::vector<double>{6.0 * kHour + 60.0, 0.5 * kHour + 60.0, 12.0 * kHour + 60.0});
+  CHECK(gaps_of(run.scenario, 60.0) == std::vector<double>{6.0 * kHour + 60.0, 0.5 * kHour + 60.0, 12.0 * kHour + 60.0});
   for (const double t : run.scenario.time_s)
     for (const auto& [from_h, to_h] : spec.variant.gaps_h) REQUIRE_FALSE((t >= from_h * kHour && t < to_h * kHour));
   // Creep: the truth minus the same run without creep is monotone, with the creep's sign, and
@@ -162,13 +179,7 @@ TEST_CASE("held-out H4: gaps in the data, a monotone creep in the truth and stro
   const auto creep = spec.variant.creep;
   spec.variant.creep = {};
   const auto no_creep = sc::simulate_load_case(spec, spec.info.default_seed);
-  const Eigen::MatrixXd trend = run.truth.errors - no_creep.truth.errors;
-  for (Eigen::Index e = 0; e < trend.cols(); ++e) {
-    INFO("error " << e);
-    const double sign = creep[static_cast<std::size_t>(e)] > 0 ? 1.0 : -1.0;
-    for (Eigen::Index r = 1; r < trend.rows(); ++r) REQUIRE(sign * (trend(r, e) - trend(r - 1, e)) >= -kRoundOff);
-    CHECK(sign * trend(trend.rows() - 1, e) > 0.75 * std::abs(creep[static_cast<std::size_t>(e)]));
-  }
+  check_creep(run.truth.errors - no_creep.truth.errors, creep, 0.75);
   // The quadratic bending of the cradle reaches several µm/m on E_A0C (A's machine: a few tenths).
   const Eigen::VectorXd gradient = run.truth.nodes.col(sc::kCradle) - run.truth.nodes.col(sc::kBed);
   CHECK(spec.twin.quadratic[4] * gradient.squaredNorm() / static_cast<double>(gradient.size()) > 2.0);
@@ -198,10 +209,7 @@ TEST_CASE("held-out H6: 120 s spacing with one 4-h gap, a drifting and a dead se
   const sc::Scenario& s = run.scenario;
   REQUIRE(s.input_names == std::vector<std::string>{"T_ENV", "T_WS", "T_COOL", "T_CRD", "n_C", "CF_on"});
   // Rows every 120 s but for the one gap of 70-74 h.
-  std::vector<double> gaps;
-  for (const double d : spacings(s))
-    if (d != 120.0) gaps.push_back(d);
-  CHECK(gaps == std::vector<double>{4.0 * kHour + 120.0});
+  CHECK(gaps_of(s, 120.0) == std::vector<double>{4.0 * kHour + 120.0});
   // T_CRD dies at 110 h (constant from then on; it followed the cradle before).
   const int crd = s.input_index("T_CRD");
   Eigen::Index dead_from = 0;
@@ -253,10 +261,7 @@ TEST_CASE("held-out H7: re-levelled at 60 h with the bed's gains 0.6x, creep, a 
   const sc::Scenario& s = run.scenario;
   REQUIRE(s.input_names == std::vector<std::string>{"T_ENV", "T_WS", "T_COOL", "T_COL", "n_C"});
   // Rows every 60 s but for the gap of 90-91 h.
-  std::vector<double> gaps;
-  for (const double d : spacings(s))
-    if (d != 60.0) gaps.push_back(d);
-  CHECK(gaps == std::vector<double>{1.0 * kHour + 60.0});
+  CHECK(gaps_of(s, 60.0) == std::vector<double>{1.0 * kHour + 60.0});
   // T_COL drifts +0.12 K/day against the column: the mean offset of the last day is 4 days after
   // that of the first, +0.48 K.
   const Eigen::VectorXd offset = s.inputs.col(s.input_index("T_COL")) - run.truth.nodes.col(sc::kColumn);
@@ -289,14 +294,8 @@ TEST_CASE("held-out H7: re-levelled at 60 h with the bed's gains 0.6x, creep, a 
   // Creep with the sign of its amplitude, monotone: 1 - exp(-120/200) = 0.45 of it at the end.
   sc::LoadCaseSpec no_creep = spec;
   no_creep.variant.creep = {};
-  const Eigen::MatrixXd trend = run.truth.errors - sc::simulate_load_case(no_creep, spec.info.default_seed).truth.errors;
-  for (Eigen::Index e = 0; e < trend.cols(); ++e) {
-    INFO("error " << e);
-    const double c = spec.variant.creep[static_cast<std::size_t>(e)];
-    const double sign = c > 0 ? 1.0 : -1.0;
-    for (Eigen::Index r = 1; r < trend.rows(); ++r) REQUIRE(sign * (trend(r, e) - trend(r - 1, e)) >= -kRoundOff);
-    CHECK(sign * trend(trend.rows() - 1, e) > 0.40 * std::abs(c));
-  }
+  check_creep(run.truth.errors - sc::simulate_load_case(no_creep, spec.info.default_seed).truth.errors,
+              spec.variant.creep, 0.40);
   // Time constants spread wider than A's: the fastest mode faster, the slowest slower.
   const Eigen::VectorXd tau_h7 = sc::ThermalTwin(spec.twin).network(false).time_constants_s();
   const Eigen::VectorXd tau_a = sc::ThermalTwin(sc::load_case_spec("A").twin).network(false).time_constants_s();
