@@ -655,8 +655,9 @@ void add_replay_command(CLI::App& app) {
                 "the last probe, and backs compensation off per "
                 "output: it scales the prediction by its least-squares gain in [0, 1] against the errors of the "
                 "recent probes and adds the level those probes measured (the decaying mean of what the scaled "
-                "prediction left at the recent Post-CP probes, shrunk towards 0), compensates nothing while the "
-                "prediction leaves the range of the measured errors, keeps compensation within the latest probe's error +- 2 x the fastest drift the "
+                "prediction left at the recent Post-CP probes, shrunk towards 0), compensates nothing of the model "
+                "while the prediction leaves the range of the measured errors (the latest probe's error fading "
+                "towards 0 within the bound that follows), keeps compensation within the latest probe's error +- 2 x the fastest drift the "
                 "probes measured x the time since, and where the model did worse than none at the first probe "
                 "after a fit on a burst of probes compensates that probe's error until the next (docs/adaptive.md)")
       ->excludes(guard);

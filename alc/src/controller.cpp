@@ -505,8 +505,12 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
   Eigen::VectorXd c = state_.prediction;
   if (!params_.guard || !state_.has_model) return c;
   for (Eigen::Index i = 0; i < c.size(); ++i) {
+    // Off by the range: nothing of the model, but the latest probes' drift bound still holds, so the
+    // compensation is the latest probe's error fading towards 0 at twice the fastest drift (0 where the
+    // bound reaches it, and with no bound yet), as where the gain is 0.
     if (state_.guard_off_range(i) != 0.0) {
-      c(i) = 0.0;
+      const DriftBound b = drift_bound(i, time_s);
+      c(i) = std::clamp(0.0, b.low, b.high);
       continue;
     }
     // Held by the first check: the error its probe measured, until the next probe.
@@ -530,10 +534,14 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       if (off != (state_.guard_off_range(i) != 0.0)) {
         state_.guard_off_range(i) = off ? 1.0 : 0.0;
         std::ostringstream why;
-        if (off)
+        if (off) {
           why << "compensation off: the prediction " << p << " left the range of the measured errors widened to ["
               << lo << ", " << hi << "]";
-        else
+          const DriftBound b = drift_bound(i, time_s);
+          if (!(0.0 >= b.low && 0.0 <= b.high))
+            why << "; the latest probe's error " << b.anchor << " fading towards 0 within [" << b.low << ", " << b.high
+                << "] (" << kDriftFactor << " x the fastest drift the probes measured) instead";
+        } else
           why << "compensation on again: the prediction " << p << " is back within [" << lo << ", " << hi << "]";
         out.events.push_back(guard_event(time_s, i, p, p > hi ? hi : lo, why.str()));
       }
@@ -543,15 +551,22 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const double g = off ? 0.0 : std::isnan(hold) ? model_compensation(i) : hold;
       const DriftBound b = drift_bound(i, time_s);
       const double acl = acl_of(static_cast<std::size_t>(i));
-      const bool held = !off && !(g >= b.low - acl && g <= b.high + acl);
+      // Off by the range, what the bound holds back is 0 (nothing of the model).
+      const bool held = !(g >= b.low - acl && g <= b.high + acl);
       if (held == (state_.guard_held(i) != 0.0)) continue;
       state_.guard_held(i) = held ? 1.0 : 0.0;
-      if (off) continue;  // the range's switch took over (its own event above): nothing is compensated
       std::ostringstream why;
-      if (held)
+      if (held && off)
+        why << "compensation held to [" << b.low << ", " << b.high << "]: off by the range, the latest probe's error "
+            << b.anchor << " fades towards 0 no faster than " << kDriftFactor << " x the fastest drift the probes measured ("
+            << b.rate * 3600.0 << " per h)";
+      else if (held)
         why << "compensation held to [" << b.low << ", " << b.high << "]: the prediction " << g
             << " moves away from the latest probe's error " << b.anchor << " faster than " << kDriftFactor
             << " x the fastest drift the probes measured (" << b.rate * 3600.0 << " per h)";
+      else if (off)
+        why << "compensation held no more than the ACL: off by the range, the bound [" << b.low << ", " << b.high
+            << "] reaches within the ACL of 0";
       else
         why << "compensation held no more than the ACL: the prediction " << g << ", the bound [" << b.low << ", "
             << b.high << "]";

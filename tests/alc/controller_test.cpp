@@ -1428,7 +1428,7 @@ TEST_CASE("controller: the guard's level takes out a lasting offset the model do
   CHECK(off.controller.on_tick(off.t).prediction == off.controller.state().prediction);
 }
 
-TEST_CASE("controller: the guard compensates nothing while the prediction leaves the measured range") {
+TEST_CASE("controller: the guard compensates nothing of the model while the prediction leaves the measured range") {
   AlcParameters p = test_parameters();
   Driver d(p);
   d.run_until(6 * kHour);
@@ -1453,6 +1453,8 @@ TEST_CASE("controller: the guard compensates nothing while the prediction leaves
         off = true;
       }
     if (off) {
+      // 0: here the drift bound around the latest probe's error reaches 0 by the time the range switches
+      // the model off, so it holds nothing away from 0 (where it does not: the next test).
       CHECK(out.prediction(0) == 0.0);
       CHECK(d.controller.state().prediction(0) > high);
     }
@@ -1514,6 +1516,67 @@ double fastest_drift(const ControllerState& s, double span_s, bool settle = true
         break;
       }
   return rate;
+}
+
+TEST_CASE("controller: off by the range, compensation is the latest probe's error fading towards 0 within the drift bound") {
+  // E_X0C sits about 40 µm from 0 (a lasting offset the probes measure); the inputs then jump to a
+  // temperature never seen, the prediction leaves the range and the model's compensation goes off. What
+  // remains is what the latest probes bound: that probe's error, fading towards 0 no faster than twice
+  // the fastest drift the probes measured, not a step to 0 (H7 at seed 72: E_X0C 18 µm off for half an
+  // hour during an NG burst whose probes had just measured it).
+  AlcParameters p = test_parameters();
+  Driver d(p);
+  d.plant.offset_x = 40.0;
+  d.run_until(6 * kHour + kMinute);  // the probe at 6 h is the latest
+  REQUIRE(d.of_type(ControllerEvent::Type::AclBreach).empty());
+  const ControllerState& s = d.controller.state();
+  REQUIRE(s.probes.back().time_s == 6 * kHour);
+  const double anchor = s.probes.back().errors(0);
+  REQUIRE(anchor > 30.0);
+  Eigen::VectorXd hot(2);
+  hot << 120.0, 500.0;
+  double off_at = -1.0, last = 0.0;
+  bool held_at_off = false, released_told = false;
+  for (int i = 0; i < 8 * 60; ++i) {
+    d.t += kMinute;
+    const ControllerOutput out = d.controller.on_sample(d.t, hot);  // no probe: the bound only widens
+    for (const auto& e : out.events) {
+      if (e.type != ControllerEvent::Type::Guard || e.output != "E_X0C") continue;
+      if (e.reason.rfind("compensation off", 0) == 0) {
+        CHECK_THAT(e.reason, Catch::Contains("left the range") && Catch::Contains("fading towards 0 within"));
+        off_at = d.t;
+      }
+      // (Before the switch the bound may hold the running-away prediction back: its own event.)
+      if (e.reason.rfind("compensation held to", 0) == 0 && off_at >= 0.0) {
+        CHECK_THAT(e.reason, Catch::Contains("off by the range"));
+      }
+      if (e.reason.rfind("compensation held no more than the ACL", 0) == 0 && off_at >= 0.0) {
+        CHECK_THAT(e.reason, Catch::Contains("off by the range"));
+        CHECK(std::abs(out.prediction(0)) <= p.acl_linear_um);
+        released_told = true;
+      }
+    }
+    if (off_at < 0.0) continue;
+    REQUIRE(s.guard_off_range(0) == 1.0);
+    const double c = out.prediction(0);
+    if (d.t == off_at) {
+      // Not 0 at the switch: within the drift bound of the latest probe's error, on its side of 0.
+      CHECK(c > 0.0);
+      CHECK(c <= anchor);
+      // Held back from 0 by more than the ACL: the guard's held state, told by the off event (above) or
+      // by the bound's event before it, and told again when the bound reaches within the ACL of 0.
+      held_at_off = c > p.acl_linear_um;
+      CHECK((s.guard_held(0) == 1.0) == held_at_off);
+    } else {
+      CHECK(c <= last);  // fading, never back up while no probe comes
+      CHECK(c >= 0.0);   // towards 0, never past it
+    }
+    last = c;
+  }
+  REQUIRE(off_at > 0.0);
+  REQUIRE(held_at_off);  // the case this test is about: 40 µm from 0 and a slow drift
+  CHECK(released_told);
+  CHECK(last == 0.0);  // the bound reached 0 hours later: nothing is compensated then
 }
 
 TEST_CASE("controller: the guard holds compensation within the drift the probes have measured") {

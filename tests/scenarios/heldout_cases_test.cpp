@@ -387,3 +387,18 @@ TEST_CASE("held-out H6 at its own seed and seeds 1-10: the default set meets the
     CHECK(o.P99 <= o.P99_uncompensated);
   }
 }
+
+TEST_CASE("held-out H7 at seeds 60 and 72: off by the range, the latest probe's error fades instead of a step to 0", "[sweep]") {
+  // The two of H7's 81 runs (its own seed and seeds 1-80) that were above 5 µm (6.84 and 6.16) while an
+  // output off by the guard's range was compensated with 0: an NG burst from 8.3 h whose first model's
+  // prediction ran past the errors its probes measured (docs/twin.md, "H7"). With the latest probe's
+  // error fading within the drift bound they are 4.66 and 4.64 µm (Pd unchanged: 93.97 and 93.78 %).
+  const std::uint64_t seed = GENERATE(as<std::uint64_t>{}, 60, 72);
+  INFO("H7 seed " << seed);
+  const alc::runtime::ReplayReport r = alc::runtime::replay(sc::simulate_case("H7", seed).scenario, alc::AlcParameters{});
+  CHECK(r.mean_p99(alc::ErrorKind::Linear) < 5.0);
+  for (const auto& o : r.outputs) {
+    INFO(o.name << ": " << o.P99 << " with ALC, " << o.P99_uncompensated << " uncompensated");
+    CHECK(o.P99 <= o.P99_uncompensated);
+  }
+}

@@ -133,7 +133,9 @@ struct ControllerOutput {
   bool accepted = true;                // false: the sample or probe was rejected (reason), nothing changed
   std::string reason;                  // why it was rejected
   Eigen::VectorXd prediction;          // [µm] / [µm/m] the errors to compensate: the model's prediction, zero
-                                       //     while no model exists and where the guard holds compensation off
+                                       //     while no model exists; where the guard's range switches the model
+                                       //     off, the latest probe's error fading towards 0 within the drift
+                                       //     bound (0 once the bound reaches 0)
   double next_probe_due_s = kInf;      // [s] inf: no probe scheduled
   std::vector<ControllerEvent> events;
   std::optional<FitResult> fit;        // the identification that ran in this cycle, if any
@@ -186,6 +188,7 @@ struct ControllerState {
   Eigen::VectorXd error_high;
   Eigen::VectorXd guard_off_range;     // 1 while compensation is off because the prediction left the range
   Eigen::VectorXd guard_held;          // 1 while the drift bound holds compensation back by more than the ACL
+                                       //     (from the model, or, off by the range, from 0)
   bool first_check_due = false;        // the next probe is the guard's first check of a model fitted on a burst
   Eigen::VectorXd guard_check_hold;    // [unit] where the model's compensation did worse than none at its first
                                        //     check, the error that probe measured, compensated until the next
