@@ -531,7 +531,8 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const double p = state_.prediction(i);
       const auto [lo, hi] = guard_range(i);
       const bool off = !(p >= lo && p <= hi);
-      if (off != (state_.guard_off_range(i) != 0.0)) {
+      const bool switched = off != (state_.guard_off_range(i) != 0.0);
+      if (switched) {
         state_.guard_off_range(i) = off ? 1.0 : 0.0;
         std::ostringstream why;
         if (off) {
@@ -553,7 +554,9 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const double acl = acl_of(static_cast<std::size_t>(i));
       // Off by the range, what the bound holds back is 0 (nothing of the model).
       const bool held = !(g >= b.low - acl && g <= b.high + acl);
-      if (held == (state_.guard_held(i) != 0.0)) continue;
+      // Told when it starts or stops, and again when the range switches while it holds: what it holds
+      // back is then another (the model's prediction, or 0 off by the range).
+      if (held == (state_.guard_held(i) != 0.0) && !(held && switched)) continue;
       state_.guard_held(i) = held ? 1.0 : 0.0;
       std::ostringstream why;
       if (held && off)

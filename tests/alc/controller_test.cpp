@@ -1536,7 +1536,7 @@ TEST_CASE("controller: off by the range, compensation is the latest probe's erro
   Eigen::VectorXd hot(2);
   hot << 120.0, 500.0;
   double off_at = -1.0, last = 0.0;
-  bool held_at_off = false, released_told = false;
+  bool held_at_off = false, held_told_at_off = false, released_told = false;
   for (int i = 0; i < 8 * 60; ++i) {
     d.t += kMinute;
     const ControllerOutput out = d.controller.on_sample(d.t, hot);  // no probe: the bound only widens
@@ -1546,9 +1546,12 @@ TEST_CASE("controller: off by the range, compensation is the latest probe's erro
         CHECK_THAT(e.reason, Catch::Contains("left the range") && Catch::Contains("fading towards 0 within"));
         off_at = d.t;
       }
-      // (Before the switch the bound may hold the running-away prediction back: its own event.)
+      // Before the switch the bound may hold the running-away prediction back (its own event); at the
+      // switch, still holding, it is told again with what it now holds back: 0, not the model.
       if (e.reason.rfind("compensation held to", 0) == 0 && off_at >= 0.0) {
-        CHECK_THAT(e.reason, Catch::Contains("off by the range"));
+        CHECK_THAT(e.reason, Catch::Contains("off by the range") && Catch::Contains("fades towards 0"));
+        CHECK(e.value == 0.0);
+        if (e.time_s == off_at) held_told_at_off = true;
       }
       if (e.reason.rfind("compensation held no more than the ACL", 0) == 0 && off_at >= 0.0) {
         CHECK_THAT(e.reason, Catch::Contains("off by the range"));
@@ -1563,8 +1566,8 @@ TEST_CASE("controller: off by the range, compensation is the latest probe's erro
       // Not 0 at the switch: within the drift bound of the latest probe's error, on its side of 0.
       CHECK(c > 0.0);
       CHECK(c <= anchor);
-      // Held back from 0 by more than the ACL: the guard's held state, told by the off event (above) or
-      // by the bound's event before it, and told again when the bound reaches within the ACL of 0.
+      // Held back from 0 by more than the ACL: the guard's held state, told at the switch (above) and
+      // again when the bound reaches within the ACL of 0.
       held_at_off = c > p.acl_linear_um;
       CHECK((s.guard_held(0) == 1.0) == held_at_off);
     } else {
@@ -1575,6 +1578,7 @@ TEST_CASE("controller: off by the range, compensation is the latest probe's erro
   }
   REQUIRE(off_at > 0.0);
   REQUIRE(held_at_off);  // the case this test is about: 40 µm from 0 and a slow drift
+  CHECK(held_told_at_off);
   CHECK(released_told);
   CHECK(last == 0.0);  // the bound reached 0 hours later: nothing is compensated then
 }

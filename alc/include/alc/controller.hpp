@@ -70,7 +70,9 @@ struct AlcParameters {
                                            // output, scale the prediction by its least-squares gain in [0, 1]
                                            // against the errors of recent Post-CP probes and add the level
                                            // those probes measured (the guard's level), compensate nothing
-                                           // while the prediction leaves the range of the measured errors, and
+                                           // of the model while the prediction leaves the range of the
+                                           // measured errors (the latest probe's error fading within the
+                                           // drift bound instead), and
                                            // keep compensation within the latest probe's error +- 2 x the
                                            // fastest drift measured x the time since (the drift bound)
   double move_fraction = 0.5;              // [-] the guard's move check: a Post-CP probe is due as soon as an
@@ -119,7 +121,7 @@ struct ControllerEvent {
   std::string output;            // error name (AclBreach, Guard, Implausible)
   double value = 0.0;            // residual [µm] or [µm/m] (AclBreach); the new gain (Guard) or the prediction
                                  //     that left the range (Guard, range) or the prediction with its gain (Guard,
-                                 //     drift bound) or the error the model's compensation left at its first
+                                 //     drift bound; 0 off by the range) or the error the model's compensation left at its first
                                  //     check (Guard, first check; at the hold's end the probe's error without
                                  //     compensation); the reading set aside (Implausible)
   double limit = 0.0;            // ACL [µm] or [µm/m] (AclBreach); the gain before (Guard) or the range's bound
