@@ -505,22 +505,17 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
   Eigen::VectorXd c = state_.prediction;
   if (!params_.guard || !state_.has_model) return c;
   for (Eigen::Index i = 0; i < c.size(); ++i) {
-    // Off by the range: nothing of the model, but the latest probes' drift bound still holds, so the
-    // compensation is the latest probe's error fading towards 0 at twice the fastest drift (0 where the
-    // bound reaches it, and with no bound yet), as where the gain is 0.
-    if (state_.guard_off_range(i) != 0.0) {
-      const DriftBound b = drift_bound(i, time_s);
-      c(i) = std::clamp(0.0, b.low, b.high);
-      continue;
-    }
+    const bool off = state_.guard_off_range(i) != 0.0;
     // Held by the first check: the error its probe measured, until the next probe.
-    if (!std::isnan(state_.guard_check_hold(i))) {
+    if (!off && !std::isnan(state_.guard_check_hold(i))) {
       c(i) = state_.guard_check_hold(i);
       continue;
     }
-    c(i) = model_compensation(i);
+    // The model's compensation, nothing of it off by the range, within the drift bound: off by the range
+    // that is the latest probe's error fading towards 0 at twice the fastest drift (0 once the bound
+    // reaches 0, and with no bound yet), as where the gain is 0.
     const DriftBound b = drift_bound(i, time_s);
-    c(i) = std::clamp(c(i), b.low, b.high);
+    c(i) = std::clamp(off ? 0.0 : model_compensation(i), b.low, b.high);
   }
   return c;
 }
@@ -532,13 +527,13 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       const auto [lo, hi] = guard_range(i);
       const bool off = !(p >= lo && p <= hi);
       const bool switched = off != (state_.guard_off_range(i) != 0.0);
+      const DriftBound b = drift_bound(i, time_s);
       if (switched) {
         state_.guard_off_range(i) = off ? 1.0 : 0.0;
         std::ostringstream why;
         if (off) {
           why << "compensation off: the prediction " << p << " left the range of the measured errors widened to ["
               << lo << ", " << hi << "]";
-          const DriftBound b = drift_bound(i, time_s);
           if (!(0.0 >= b.low && 0.0 <= b.high))
             why << "; the latest probe's error " << b.anchor << " fading towards 0 within [" << b.low << ", " << b.high
                 << "] (" << kDriftFactor << " x the fastest drift the probes measured) instead";
@@ -550,7 +545,6 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       // ACL (right after every probe it holds a little: compensation starts from the error measured).
       const double hold = state_.guard_check_hold(i);
       const double g = off ? 0.0 : std::isnan(hold) ? model_compensation(i) : hold;
-      const DriftBound b = drift_bound(i, time_s);
       const double acl = acl_of(static_cast<std::size_t>(i));
       // Off by the range, what the bound holds back is 0 (nothing of the model).
       const bool held = !(g >= b.low - acl && g <= b.high + acl);
