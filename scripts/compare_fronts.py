@@ -3,6 +3,7 @@
 
 usage: compare_fronts.py A.csv B.csv [--label-a paper] [--label-b adaptive] [--svg PREFIX] [--fronts]
                          [--worse-by PARAM[,PARAM...]] [--choose-on GROUP ...] [--sample-sets N [--seed S]]
+                         [--cases CASE[,CASE...]]
 
 A front is the sets no other set of the same file beats in both (lower or equal P99, higher or equal
 Pd). Per case (a recording: a built-in case, or a file "X seed S.csv" of scripts/fronts.sh) it prints
@@ -38,6 +39,8 @@ tunes on those machines would, and both tables are printed again with only the c
 other recordings (out of sample); with --sample-sets N each file keeps N of its sets drawn at random
 (random.Random(--seed, default 1); a file of N sets or fewer keeps all), which compares grids of
 different size at the same size.
+With --cases CASE[,CASE...] only the recordings of those cases count (at every seed), so one study
+over all cases gives the tables of a subset (scripts/fronts.sh with CASES="A B C D H7" runs the same rows).
 With --svg PREFIX, one SVG per seed (PREFIX-own.svg, PREFIX-seed-S.svg) with both fronts per case.
 Standard library only.
 """
@@ -426,6 +429,20 @@ def pooled_table(ra, rb, keys, la, lb):
     return out
 
 
+def only_cases(spec, studies):
+    """The rows of each (path, rows) in studies whose recording is of a case named in spec (comma-separated,
+    e.g. "A,B,C,D,H7"; a case, not a recording: "A" keeps A at its own seed and every other). A name with no
+    recording in any file, or none at all, ends the script naming it and the cases the files have."""
+    wanted = [c.strip() for c in spec.split(",") if c.strip()]
+    have = sorted({r["key"][0] for _, rows_ in studies for r in rows_})
+    unknown = [c for c in wanted if c not in have]
+    if not wanted or unknown:
+        raise SystemExit(f"--cases: {', '.join(repr(c) for c in unknown) if wanted else repr(spec)} "
+                         f"{'is not a case of' if wanted else 'names no case of'} "
+                         f"{' or '.join(p for p, _ in studies)} (theirs: {', '.join(have) or 'none'})")
+    return [[r for r in rows_ if r["key"][0] in wanted] for _, rows_ in studies]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("a")
@@ -444,9 +461,14 @@ def main():
     ap.add_argument("--sample-sets", metavar="N", type=int,
                     help="compare only N sets of each file, drawn at random (a file of N sets or fewer keeps all)")
     ap.add_argument("--seed", type=int, default=1, help="the seed of --sample-sets' draw (default 1)")
+    ap.add_argument("--cases", metavar="CASE[,CASE...]",
+                    help="only the recordings of these cases, at every seed (e.g. A,B,C,D,H7: one run of "
+                         "scripts/fronts.sh over all cases, judged as CASES=\"A B C D H7\" would)")
     args = ap.parse_args()
     sa, sb = read_study(args.a), read_study(args.b)
     la, lb = args.label_a, args.label_b
+    if args.cases is not None:
+        sa, sb = only_cases(args.cases, [(args.a, sa), (args.b, sb)])
     if args.sample_sets is not None:
         if args.sample_sets < 1:
             raise SystemExit(f"--sample-sets: {args.sample_sets} is not a number of sets (1 or more)")

@@ -10,7 +10,9 @@
 # CASES: the cases, default "A B C D S16 H1 H2 H3 H4 H5" (those of the tables in docs/adaptive.md); the
 # sets are chosen on A-D at their own seeds (--choose-on below), so keep A B C D in it. H6 and H7, built
 # after the policy was settled, are judged each apart: CASES="A B C D H6", CASES="A B C D H7" (docs/adaptive.md,
-# "A case built after", "A second case built after").
+# "A case built after", "A second case built after"), or all cases in one run and the tables of each subset
+# from its CSVs with `scripts/compare_fronts.py OUT_DIR/paper.csv OUT_DIR/adaptive.csv --cases A,B,C,D,H7 ...`
+# (the same rows: a run does not depend on the other cases).
 # ALC defaults to build/release/cli/alc of this checkout, the build of scripts/main.sh (run that first;
 # this script builds nothing).
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg

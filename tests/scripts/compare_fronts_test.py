@@ -290,6 +290,35 @@ class WorseTest(Files):
         plain = subprocess.run([sys.executable, SCRIPT, a, b], capture_output=True, text=True, check=True).stdout
         self.assertEqual(same[same.index("| recording"):], plain)
 
+    def test_only_the_recordings_of_the_cases_named(self):
+        # A and B at their own seeds and at seed 2, H7 at its own seed. With --cases A,H7 the tables hold A, A seed
+        # 2 and H7, not B; the pooled A-D groups have A's recordings alone: at seed 2 p1 (90, 2.5) against q1
+        # (90, 2.0), -20 %, where with B (p 3.5, q 3.5: 0 %) they would pool to 3.0 against 2.75, -8.3 %.
+        lines_a, lines_b = [HEADER], [HEADER]
+        for case, (p1, q1) in {"A": (2, 1.8), "B": (3, 3), "A seed 2": (2.5, 2.0), "B seed 2": (3.5, 3.5),
+                               "H7": (4, 5)}.items():
+            lines_a.append(row(1, case, 1, 0.5, 90, p1))
+            lines_b.append(row(1, case, 1, 0.5, 90, q1))
+        a, b = self.write("a.csv", lines_a), self.write("b.csv", lines_b)
+        run = lambda *extra: subprocess.run([sys.executable, SCRIPT, a, b, *extra], capture_output=True, text=True)
+        out = run("--cases", "A,H7").stdout
+        self.assertIn("| A seed 2 | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -20.0 % |", out)
+        self.assertIn("| H7 | 0 of 1 | 1 of 1 | 0.00 | 0.00 | — | 90.00 | +25.0 % |", out)
+        self.assertNotIn("| B |", out)
+        self.assertNotIn("| B seed 2 |", out)
+        self.assertIn("| A-D, seed 2 (1) | 1 of 1 | 0 of 1 | 90.00 | — | 100.0 / 0.0 / 0.0 % | 100.0 / 0.0 / 0.0 % | "
+                      "-20.0 % |", out)
+        everything = run().stdout
+        self.assertIn("| A-D, seed 2 (2) |", everything)
+        self.assertIn("| B seed 2 |", everything)
+        # A case the files do not have is refused, naming it and theirs; so is a list of no case.
+        bad = run("--cases", "A,H8")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn(f"--cases: 'H8' is not a case of {a} or {b} (theirs: A, B, H7)", bad.stderr)
+        bad = run("--cases", ",")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn(f"--cases: ',' names no case of {a} or {b} (theirs: A, B, H7)", bad.stderr)
+
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)
