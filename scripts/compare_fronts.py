@@ -432,14 +432,15 @@ def pooled_table(ra, rb, keys, la, lb):
 def only_cases(spec, studies):
     """The rows of each (path, rows) in studies whose recording is of a case named in spec (comma-separated,
     e.g. "A,B,C,D,H7"; a case, not a recording: "A" keeps A at its own seed and every other). A name with no
-    recording in any file, or none at all, ends the script naming it and the cases the files have."""
+    recording in any file (no run of it that ran), or none at all, ends the script naming it and the cases the
+    files have."""
     wanted = [c.strip() for c in spec.split(",") if c.strip()]
     have = sorted({r["key"][0] for _, rows_ in studies for r in rows_})
     unknown = [c for c in wanted if c not in have]
     if not wanted or unknown:
-        raise SystemExit(f"--cases: {', '.join(repr(c) for c in unknown) if wanted else repr(spec)} "
-                         f"{'is not a case of' if wanted else 'names no case of'} "
-                         f"{' or '.join(p for p, _ in studies)} (theirs: {', '.join(have) or 'none'})")
+        what = ("names no case of" if not wanted else "is not a case of" if len(unknown) == 1 else "are not cases of")
+        raise SystemExit(f"--cases: {', '.join(repr(c) for c in unknown) if wanted else repr(spec)} {what} "
+                         f"{' or '.join(p for p, _ in studies)} (theirs, with runs that ran: {', '.join(have) or 'none'})")
     return [[r for r in rows_ if r["key"][0] in wanted] for _, rows_ in studies]
 
 

@@ -300,24 +300,32 @@ class WorseTest(Files):
             lines_a.append(row(1, case, 1, 0.5, 90, p1))
             lines_b.append(row(1, case, 1, 0.5, 90, q1))
         a, b = self.write("a.csv", lines_a), self.write("b.csv", lines_b)
-        run = lambda *extra: subprocess.run([sys.executable, SCRIPT, a, b, *extra], capture_output=True, text=True)
-        out = run("--cases", "A,H7").stdout
+        run = lambda *extra: subprocess.run([sys.executable, SCRIPT, a, b, "--label-a", "paper", "--label-b", "adaptive",
+                                             *extra], capture_output=True, text=True)
+        out = run("--cases", "A,H7", "--worse-by", "").stdout
+        self.assertIn("| A | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -10.0 % |", out)  # 1.8 against 2
         self.assertIn("| A seed 2 | 1 of 1 | 0 of 1 | 0.00 | 0.00 | 90.00 | — | -20.0 % |", out)
         self.assertIn("| H7 | 0 of 1 | 1 of 1 | 0.00 | 0.00 | — | 90.00 | +25.0 % |", out)
         self.assertNotIn("| B |", out)
         self.assertNotIn("| B seed 2 |", out)
         self.assertIn("| A-D, seed 2 (1) | 1 of 1 | 0 of 1 | 90.00 | — | 100.0 / 0.0 / 0.0 % | 100.0 / 0.0 / 0.0 % | "
                       "-20.0 % |", out)
+        # The worse-than-uncompensated counts too: 3 runs per file (A, A seed 2, H7), not 5; every row has E_X at
+        # 1 against 2 and E_A at 3 against 4, so none is worse.
+        self.assertIn("| paper | all | 3 | 0 | 0 | 0 / 6 | — |", out)
+        self.assertIn("| adaptive | all | 3 | 0 | 0 | 0 / 6 | — |", out)
         everything = run().stdout
         self.assertIn("| A-D, seed 2 (2) |", everything)
         self.assertIn("| B seed 2 |", everything)
         # A case the files do not have is refused, naming it and theirs; so is a list of no case.
         bad = run("--cases", "A,H8")
         self.assertNotEqual(bad.returncode, 0)
-        self.assertIn(f"--cases: 'H8' is not a case of {a} or {b} (theirs: A, B, H7)", bad.stderr)
+        self.assertIn(f"--cases: 'H8' is not a case of {a} or {b} (theirs, with runs that ran: A, B, H7)", bad.stderr)
+        bad = run("--cases", "H8,H9")
+        self.assertIn(f"--cases: 'H8', 'H9' are not cases of {a} or {b}", bad.stderr)
         bad = run("--cases", ",")
         self.assertNotEqual(bad.returncode, 0)
-        self.assertIn(f"--cases: ',' names no case of {a} or {b} (theirs: A, B, H7)", bad.stderr)
+        self.assertIn(f"--cases: ',' names no case of {a} or {b} (theirs, with runs that ran: A, B, H7)", bad.stderr)
 
 
 if __name__ == "__main__":
