@@ -18,6 +18,11 @@
 # Writes OUT_DIR/paper.csv, OUT_DIR/adaptive.csv, OUT_DIR/fronts.md and OUT_DIR/fronts-*.svg
 # (default OUT_DIR: build/fronts); prints the table and the run time.
 set -euo pipefail
+# The whole script is one block, read before any of it runs: bash reads a script as it goes, so a run of an
+# hour would otherwise break (a syntax error, or lines run twice) when the file is rewritten in place under
+# it, by an editor or a script writing the same file (2026-12-08: a run stopped after its studies that way;
+# tests/scripts/fronts_test.sh). A file replaced by a new one, as git checkout does, never broke a run.
+{
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 alc=$(realpath -m "${ALC:-$here/build/release/cli/alc}")
 if [ ! -x "$alc" ] || [ -d "$alc" ]; then
@@ -94,3 +99,5 @@ done
 python3 "$here/scripts/compare_fronts.py" "$out/paper.csv" "$out/adaptive.csv" --label-a paper --label-b adaptive \
   --svg "$out/fronts" --choose-on "A-D, own seeds" --worse-by move-fraction | tee "$out/fronts.md"
 echo "fronts.sh: $(( $(date +%s) - start )) s (cases: $cases; seeds: own${seeds:+, $seeds}; jobs $jobs); SVGs: $out/fronts-*.svg"
+exit
+}
