@@ -368,6 +368,12 @@ double Controller::model_compensation(Eigen::Index i) const {
   return state_.prediction(i) * state_.guard_gain(i) + guard_level(i);
 }
 
+double Controller::unbounded_compensation(Eigen::Index i) const {
+  if (state_.guard_off_range(i) != 0.0) return 0.0;
+  const double hold = state_.guard_check_hold(i);
+  return std::isnan(hold) ? model_compensation(i) : hold;
+}
+
 // A Post-CP probe within the ACL tells what the compensated model's prediction left: a lasting offset of
 // the model (a CP fit that the refits on sparse probes do not move, a step no input shows) that the gain,
 // a scale, cannot take out. A breach is not learnt (NG judges it), nor an output the range switched off.
@@ -505,17 +511,14 @@ Eigen::VectorXd Controller::compensated(double time_s) const {
   Eigen::VectorXd c = state_.prediction;
   if (!params_.guard || !state_.has_model) return c;
   for (Eigen::Index i = 0; i < c.size(); ++i) {
-    const bool off = state_.guard_off_range(i) != 0.0;
-    // Held by the first check: the error its probe measured, until the next probe.
-    if (!off && !std::isnan(state_.guard_check_hold(i))) {
-      c(i) = state_.guard_check_hold(i);
-      continue;
-    }
+    c(i) = unbounded_compensation(i);
+    // Held by the first check (not off by the range): the error its probe measured, until the next probe.
+    if (state_.guard_off_range(i) == 0.0 && !std::isnan(state_.guard_check_hold(i))) continue;
     // The model's compensation, nothing of it off by the range, within the drift bound: off by the range
     // that is the latest probe's error fading towards 0 at twice the fastest drift (0 once the bound
     // reaches 0, and with no bound yet), as where the gain is 0.
     const DriftBound b = drift_bound(i, time_s);
-    c(i) = std::clamp(off ? 0.0 : model_compensation(i), b.low, b.high);
+    c(i) = std::clamp(c(i), b.low, b.high);
   }
   return c;
 }
@@ -543,8 +546,7 @@ Eigen::VectorXd Controller::compensated(double time_s, ControllerOutput& out) {
       }
       // The drift bound: an event when it starts or stops holding the compensation back by more than the
       // ACL (right after every probe it holds a little: compensation starts from the error measured).
-      const double hold = state_.guard_check_hold(i);
-      const double g = off ? 0.0 : std::isnan(hold) ? model_compensation(i) : hold;
+      const double g = unbounded_compensation(i);  // the range's state is set above
       const double acl = acl_of(static_cast<std::size_t>(i));
       // Off by the range, what the bound holds back is 0 (nothing of the model).
       const bool held = !(g >= b.low - acl && g <= b.high + acl);

@@ -313,6 +313,9 @@ class Controller {
   // What output i's model compensates with the guard's gain and level, before the range, a first check's
   // hold and the drift bound: the prediction x the gain + the level.
   double model_compensation(Eigen::Index i) const;
+  // What output i compensates before the drift bound: 0 off by the range, else the error a first check's
+  // probe measured while it holds, else model_compensation (the guard's order, read from its state).
+  double unbounded_compensation(Eigen::Index i) const;
   void weigh_level(double time_s, const Eigen::VectorXd& errors, const Eigen::VectorXd& residuals,
                    ControllerOutput& out);
   void reset_level(double time_s, bool refitted, ControllerOutput& out);
